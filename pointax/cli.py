@@ -1,0 +1,89 @@
+"""The ``pointax`` command: a thin layer over the Python API.
+
+    pointax fit DATA [--terms IA,IE,...] [--form linear|rigorous] [--json]
+
+``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
+terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
+object with the keys ``n_obs``, ``sky_rms_arcsec``, ``popn_sd_arcsec``, ``converged``,
+``terms`` (``name``, ``value_arcsec``, ``sigma_arcsec``) and ``correlation`` (in the
+order of ``terms``), plus ``iterations``, ``message``, ``solver``, ``fixed`` and
+``warnings``. Exit status: 0 on a converged fit, 1 if the fit did not converge, 2 for
+bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from . import terms as term_library
+from .fit import SOLVERS, fit
+from .io import TpointFormatError, read_tpoint, write_model
+from .model import AltAz
+from .mounts import AZIMUTH_CONVENTIONS
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pointax", description="Telescope and sun-tracker pointing models in JAX.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("fit", help="fit a pointing model to a pointing run and print the report")
+    p.add_argument("data", help="pointing run (TPOINT input file)")
+    p.add_argument(
+        "--terms",
+        default=",".join(term_library.BASIC_ALTAZ),
+        help="terms to fit, comma or space separated (default: %(default)s)",
+    )
+    p.add_argument("--form", choices=sorted(term_library.FORMS), default="linear", help="term form (default: linear, as TPOINT)")
+    p.add_argument("--fix", default="", help="terms to hold fixed at 0, comma separated")
+    p.add_argument(
+        "--azimuth",
+        choices=sorted(AZIMUTH_CONVENTIONS),
+        default="N-E",
+        help="how the file counts azimuth (default N-E, TPOINT's standard; the bundled MMT run is S-E). "
+        "Fitted TPOINT terms do not depend on it; directions in ENU do",
+    )
+    p.add_argument("--format", choices=["tpoint"], default="tpoint", help="input format (default: tpoint)")
+    p.add_argument("--solver", choices=sorted(SOLVERS), default="lm", help="least-squares solver (default: lm)")
+    p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
+    p.add_argument("--write-model", metavar="FILE", help="also write the fitted model as a TPOINT .mod file")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    return parser
+
+
+def _fit_command(args) -> int:
+    run = read_tpoint(args.data, azimuth=args.azimuth)
+    terms = term_library.tpoint(args.terms, form=args.form)
+    fixed = term_library.names(args.fix)
+    model = AltAz(terms, azimuth=run.azimuth, fixed=fixed)
+    result = fit(model, run, solver=args.solver, max_steps=args.max_steps)
+    if args.write_model:
+        write_model(args.write_model, result)
+    if args.json:
+        out = {"file": args.data, "caption": run.caption, "form": args.form, **result.to_dict()}
+        print(json.dumps(out, indent=2))
+    else:
+        print(result.report())
+    return 0 if bool(result.converged) else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "fit":
+            return _fit_command(args)
+    except (TpointFormatError, ValueError, KeyError) as err:
+        print(f"pointax: error: {err}", file=sys.stderr)
+        return 2
+    except OSError as err:
+        print(f"pointax: error: {err.filename or args.data}: {err.strerror or err}", file=sys.stderr)
+        return 2
+    parser.error(f"unknown command {args.command}")
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

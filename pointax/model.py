@@ -1,0 +1,254 @@
+"""A pointing model: a mount plus its error terms, with named, fixable parameters."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._x64 import float64
+from .mounts import AltAzMount, Mount
+from .terms.base import Term, param_fields, param_unit
+
+__all__ = ["Model", "ParameterInfo", "AltAz"]
+
+
+@dataclasses.dataclass(frozen=True)
+class ParameterInfo:
+    """Where one scalar parameter lives: its name, term index, field name and unit."""
+
+    name: str
+    term: int
+    field: str
+    unit: str
+
+
+class Model(eqx.Module):
+    """A mount and a tuple of error terms.
+
+    The model is a pytree whose leaves are the term parameters (radians unless a term
+    declares another unit). ``fixed`` names parameters that :func:`pointax.fit` keeps
+    at their current values.
+
+    Args:
+        mount: the mount kinematics, e.g. :class:`pointax.AltAzMount`.
+        terms: error terms (:mod:`pointax.terms`), applied as described in
+            :mod:`pointax.terms.base`.
+        fixed: names of parameters held fixed in fits.
+        sky_iterations: fixed-point iterations that place sky offsets at the corrected
+            position (each contracts the error by a factor of about the largest
+            offset derivative, ~1e-4 for real models: 3 is ample).
+    """
+
+    mount: Mount
+    terms: tuple[Term, ...]
+    fixed: frozenset[str] = eqx.field(static=True, default=frozenset())
+    sky_iterations: int = eqx.field(static=True, default=3)
+
+    def __init__(
+        self,
+        mount: Mount,
+        terms: Iterable[Term] = (),
+        fixed: Iterable[str] = (),
+        sky_iterations: int = 3,
+    ):
+        self.mount = mount
+        self.terms = tuple(terms)
+        self.fixed = frozenset(fixed)
+        self.sky_iterations = int(sky_iterations)
+        names = [t.name for t in self.terms]
+        duplicated = sorted({n for n in names if names.count(n) > 1})
+        if duplicated:
+            raise ValueError(f"terms appear more than once: {', '.join(duplicated)}")
+        for t in self.terms:
+            if not isinstance(t, Term):
+                raise TypeError(f"{t!r} is not a pointax.Term")
+        unknown = sorted(self.fixed - set(self.parameter_names))
+        if unknown:
+            raise ValueError(
+                f"cannot fix unknown parameters {unknown}; the model has {self.parameter_names}"
+            )
+
+    # ----------------------------------------------------------------- parameters
+
+    @property
+    def parameters(self) -> tuple[ParameterInfo, ...]:
+        """Every scalar parameter, in term order then field order."""
+        out = []
+        for i, term in enumerate(self.terms):
+            fields = param_fields(term)
+            for f in fields:
+                name = term.name if len(fields) == 1 else f"{term.name}.{f.name}"
+                out.append(ParameterInfo(name, i, f.name, param_unit(f)))
+        return tuple(out)
+
+    @property
+    def parameter_names(self) -> list[str]:
+        """Names of every parameter, fixed or free."""
+        return [p.name for p in self.parameters]
+
+    @property
+    def free_parameters(self) -> tuple[ParameterInfo, ...]:
+        """The parameters a fit adjusts."""
+        return tuple(p for p in self.parameters if p.name not in self.fixed)
+
+    def values(self, which: str = "all") -> Float[Array, " n"]:
+        """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'."""
+        params = self.parameters if which == "all" else self.free_parameters
+        return jnp.stack([jnp.asarray(getattr(self.terms[p.term], p.field), float) for p in params]) if params else jnp.zeros((0,))
+
+    def with_values(self, values: Float[ArrayLike, " n"], which: str = "all") -> "Model":
+        """A copy with parameter values replaced from a vector (see :meth:`values`)."""
+        params = self.parameters if which == "all" else self.free_parameters
+        values = jnp.asarray(values)
+        if values.shape != (len(params),):
+            raise ValueError(f"expected {len(params)} values, got shape {values.shape}")
+        if not params:
+            return self
+        return eqx.tree_at(
+            lambda m: [getattr(m.terms[p.term], p.field) for p in params],
+            self,
+            [values[k] for k in range(len(params))],
+            is_leaf=lambda x: x is None,
+        )
+
+    def get(self, name: str):
+        """Value of the parameter called ``name`` (internal units)."""
+        for p in self.parameters:
+            if p.name == name:
+                return getattr(self.terms[p.term], p.field)
+        raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
+
+    def set(self, **values) -> "Model":
+        """A copy with the named parameters set, e.g. ``model.set(IA=px.arcsec(10))``.
+
+        Use ``model.set(**{"Wobble.amp": x})`` for dotted names.
+        """
+        info = {p.name: p for p in self.parameters}
+        for name in values:
+            if name not in info:
+                raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
+        params = [info[n] for n in values]
+        return eqx.tree_at(
+            lambda m: [getattr(m.terms[p.term], p.field) for p in params],
+            self,
+            [values[p.name] for p in params],
+            is_leaf=lambda x: x is None,
+        )
+
+    def fix(self, *names: str) -> "Model":
+        """A copy with ``names`` held fixed in fits."""
+        return Model(self.mount, self.terms, self.fixed | set(names), self.sky_iterations)
+
+    def free(self, *names: str) -> "Model":
+        """A copy with ``names`` fitted again (all parameters if no name is given)."""
+        fixed = frozenset() if not names else self.fixed - set(names)
+        return Model(self.mount, self.terms, fixed, self.sky_iterations)
+
+    def with_terms(self, *terms: Term) -> "Model":
+        """A copy with ``terms`` appended."""
+        return Model(self.mount, self.terms + tuple(terms), self.fixed, self.sky_iterations)
+
+    def without_terms(self, *names: str) -> "Model":
+        """A copy without the terms called ``names``."""
+        keep = tuple(t for t in self.terms if t.name not in names)
+        kept = {p for t in keep for p in Model(self.mount, (t,)).parameter_names}
+        return Model(self.mount, keep, self.fixed & kept, self.sky_iterations)
+
+    # ----------------------------------------------------------------- evaluation
+
+    def _chain(self, hook: str, angles: Array) -> Array:
+        """Product of the terms' rotations at one place in the chain (identity if none)."""
+        rotation = jnp.eye(3, dtype=angles.dtype)
+        for term in self.terms:
+            r = getattr(term, hook)(angles)
+            if r is not None:
+                rotation = rotation @ r
+        return rotation
+
+    def corrected_encoder(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
+        """Encoder angles after the terms' encoder corrections (one observation)."""
+        angles = encoder
+        for term in self.terms:
+            offset = term.encoder_offset(encoder)
+            if offset is not None:
+                angles = angles + offset
+        return angles
+
+    def _sky_offset(self, angles: Array) -> Array | None:
+        total = None
+        for term in self.terms:
+            offset = term.sky_offset(angles)
+            if offset is not None:
+                total = offset if total is None else total + offset
+        return total
+
+    def mount_direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
+        """Pointing direction in the *mount* frame for one observation's raw encoder
+        angles (radians). Use :meth:`direction` for East-North-Up."""
+        encoder = jnp.asarray(encoder)
+        angles = self.corrected_encoder(encoder)
+        mount = self.mount
+        d = (
+            self._chain("base_rotation", angles)
+            @ mount.axis1(angles[0])
+            @ self._chain("axes_rotation", angles)
+            @ mount.axis2(angles[1])
+            @ self._chain("boresight_rotation", angles)
+            @ mount.boresight
+        )
+        if self._sky_offset(angles) is None:
+            return d
+        chain_angles = mount.angles_of(d, near=angles)
+        sky = chain_angles
+        for _ in range(self.sky_iterations):
+            sky = chain_angles + self._sky_offset(sky)
+        return mount.direction(sky)
+
+    def sky_angles(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
+        """Where the mount points, as angles in the mount's convention (one observation)."""
+        encoder = jnp.asarray(encoder)
+        return self.mount.angles_of(self.mount_direction(encoder), near=encoder)
+
+    def direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
+        """Pointing direction (ENU unit vector) for one observation's raw encoder angles."""
+        return self.mount.frame @ self.mount_direction(encoder)
+
+    @float64
+    def __call__(self, encoder: Float[ArrayLike, "*batch 2"]) -> Float[Array, "*batch 3"]:
+        """Pointing directions (ENU) for raw encoder angles of any batch shape (radians)."""
+        encoder = jnp.asarray(encoder, float)
+        flat = encoder.reshape(-1, 2)
+        out = jax.vmap(self.direction)(flat)
+        return out.reshape(encoder.shape[:-1] + (3,))
+
+    def describe(self) -> str:
+        """One line naming the mount and terms."""
+        names = " ".join(t.name for t in self.terms) or "(no terms)"
+        return f"{type(self.mount).__name__}({getattr(self.mount, 'convention', '') or ''}): {names}"
+
+
+def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fixed: Iterable[str] = ()) -> Model:
+    """An alt-az telescope model: :class:`AltAzMount` with ``terms``.
+
+    Args:
+        terms: error terms, e.g. ``pointax.terms.tpoint("IA IE NPAE CA AN AW TF TX")``.
+        azimuth: how the encoders count azimuth ('N-E', 'S-E' or 'S-W'; see
+            :class:`pointax.AltAzMount`). Use the convention of your data
+            (``run.azimuth`` for a run read by :func:`pointax.io.read_tpoint`).
+        fixed: names of parameters held fixed in fits.
+    """
+    return Model(AltAzMount(azimuth=azimuth), terms, fixed)
+
+
+def parameter_table(model: Model) -> np.ndarray:
+    """Parameter values in display units (numpy), in :attr:`Model.parameters` order."""
+    from .units import to_unit
+
+    values = np.asarray(model.values())
+    return np.array([to_unit(v, p.unit) for v, p in zip(values, model.parameters)])

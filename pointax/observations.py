@@ -1,0 +1,56 @@
+"""Observations: raw encoder angles paired with the directions actually observed."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+__all__ = ["Observations"]
+
+
+class Observations(eqx.Module):
+    """A set of pointing observations (a pytree: batch it, slice it, vmap over it).
+
+    Attributes:
+        encoder: ``(n, 2)`` raw encoder angles in radians, in the mount's own convention
+            (alt-az: azimuth and elevation as the encoders count them).
+        target: ``(n, 3)`` observed (true, catalogue) directions, unit vectors in
+            East-North-Up.
+        weight: ``(n,)`` relative weights (default 1). A weight of 0 removes an
+            observation from the fit without changing array shapes (used for padding).
+        convention: name of the encoder angle convention (e.g. 'N-E', 'S-E' for an
+            alt-az mount) or ``None``; a fit checks it against the mount's.
+    """
+
+    encoder: Float[Array, "n 2"]
+    target: Float[Array, "n 3"]
+    weight: Float[Array, " n"]
+    convention: str | None = eqx.field(static=True, default=None)
+
+    def __init__(self, encoder, target, weight=None, convention: str | None = None):
+        encoder = np.asarray(encoder, np.float64) if not isinstance(encoder, jnp.ndarray) else encoder
+        target = np.asarray(target, np.float64) if not isinstance(target, jnp.ndarray) else target
+        if encoder.ndim != 2 or encoder.shape[-1] != 2:
+            raise ValueError(f"encoder must have shape (n, 2), got {encoder.shape}")
+        if target.shape != (encoder.shape[0], 3):
+            raise ValueError(f"target must have shape ({encoder.shape[0]}, 3), got {target.shape}")
+        if weight is None:
+            weight = np.ones(encoder.shape[0])
+        elif not isinstance(weight, jnp.ndarray):
+            weight = np.asarray(weight, np.float64)
+        if weight.shape != (encoder.shape[0],):
+            raise ValueError(f"weight must have shape ({encoder.shape[0]},), got {weight.shape}")
+        self.encoder = encoder
+        self.target = target
+        self.weight = weight
+        self.convention = convention
+
+    def __len__(self) -> int:
+        return self.encoder.shape[0]
+
+    def __getitem__(self, index) -> "Observations":
+        """A subset of the observations (numpy-style index, mask or slice)."""
+        index = np.asarray(index) if not isinstance(index, slice) else index
+        return Observations(self.encoder[index], self.target[index], self.weight[index], self.convention)

@@ -1,0 +1,49 @@
+"""Simulated observations: a true model, encoder readings and measurement noise."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from ._x64 import float64
+from .model import Model
+from .observations import Observations
+from .rotations import offset_direction
+
+__all__ = ["simulate", "encoder_grid"]
+
+
+@float64
+def simulate(
+    model: Model,
+    encoder: Float[ArrayLike, "n 2"],
+    noise: float | tuple[float, float] = 0.0,
+    seed: int = 0,
+) -> Observations:
+    """Observations that ``model`` (the truth) would produce at these encoder readings.
+
+    Args:
+        model: the true pointing model.
+        encoder: ``(n, 2)`` raw encoder angles, radians, in the mount's convention.
+        noise: standard deviation of Gaussian measurement noise on the sky, radians:
+            one value for both axes or ``(cross-elevation, elevation)``.
+        seed: seed of the NumPy random generator for the noise.
+
+    Returns:
+        :class:`Observations` with the noisy true directions as targets.
+    """
+    encoder = np.asarray(encoder, np.float64)
+    truth = np.asarray(model(encoder))
+    sigma = np.broadcast_to(np.asarray(noise, np.float64), (2,))
+    offsets = np.random.default_rng(seed).normal(size=(encoder.shape[0], 2)) * sigma
+    target = np.asarray(offset_direction(jnp.asarray(truth), jnp.asarray(offsets)))
+    return Observations(encoder, target, convention=model.mount.convention)
+
+
+def encoder_grid(n_az: int = 12, elevations_deg=(20, 35, 50, 65, 80), az_offset_deg: float = 0.0) -> np.ndarray:
+    """A simple all-sky grid of ``(n_az * len(elevations), 2)`` encoder positions, radians."""
+    az = np.deg2rad(np.arange(n_az) * 360.0 / n_az + az_offset_deg)
+    el = np.deg2rad(np.asarray(elevations_deg, np.float64))
+    grid_az, grid_el = np.meshgrid(az, el)
+    return np.stack([grid_az.ravel(), grid_el.ravel()], axis=-1)

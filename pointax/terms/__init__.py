@@ -1,0 +1,86 @@
+"""The error-term library.
+
+* :mod:`pointax.terms.tpoint`: TPOINT's alt-az terms in TPOINT's linear form.
+* :mod:`pointax.terms.rigorous`: the same terms as exact rotations.
+* :class:`Term`, :func:`param`: the base class and field helper for new terms.
+
+``tpoint("IA IE NPAE CA AN AW TF TX")`` builds the terms by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from . import rigorous
+from .base import Term, param, param_fields, param_unit
+from .tpoint import (
+    ACEC,
+    ACES,
+    AN,
+    AW,
+    CA,
+    ECEC,
+    ECES,
+    IA,
+    IE,
+    LINEAR_TERMS,
+    NPAE,
+    PAA1,
+    PEE1,
+    TF,
+    TX,
+    LinearTerm,
+)
+
+__all__ = [
+    "Term",
+    "param",
+    "param_fields",
+    "param_unit",
+    "LinearTerm",
+    "tpoint",
+    "names",
+    "rigorous",
+    "FORMS",
+    "BASIC_ALTAZ",
+    *LINEAR_TERMS,
+]
+
+FORMS = {"linear": LINEAR_TERMS, "rigorous": rigorous.RIGOROUS_TERMS}
+"""Term form name -> {TPOINT name: term class}."""
+
+BASIC_ALTAZ = ("IA", "IE", "NPAE", "CA", "AN", "AW", "TF", "TX")
+"""TPOINT's eight basic alt-az terms."""
+
+
+def names(spec: str | Iterable[str]) -> list[str]:
+    """Split a term list given as 'IA IE CA', 'IA,IE,CA' or a sequence of names."""
+    if isinstance(spec, str):
+        spec = spec.replace(",", " ").split()
+    return [s.strip().upper() for s in spec if s.strip()]
+
+
+def tpoint(spec: str | Iterable[str] = BASIC_ALTAZ, form: str = "linear", values: dict | None = None) -> tuple[Term, ...]:
+    """TPOINT terms by name, e.g. ``tpoint("IA IE NPAE CA AN AW TF TX")``.
+
+    Args:
+        spec: names separated by spaces or commas, or a sequence of names.
+        form: 'linear' (TPOINT's own definitions, the default) or 'rigorous'
+            (exact rotations, :mod:`pointax.terms.rigorous`).
+        values: optional starting values in radians, by name.
+
+    Raises:
+        ValueError: for an unknown form or term name (the message lists the known ones).
+    """
+    if form not in FORMS:
+        raise ValueError(f"unknown term form {form!r}; expected one of {sorted(FORMS)}")
+    library = FORMS[form]
+    values = dict(values or {})
+    out = []
+    for name in names(spec):
+        if name not in library:
+            raise ValueError(f"unknown TPOINT term {name!r}; known alt-az terms: {' '.join(library)}")
+        out.append(library[name](coef=values.pop(name, 0.0)))
+    if values:
+        raise ValueError(f"values given for terms not in the list: {sorted(values)}")
+    return tuple(out)

@@ -1,0 +1,170 @@
+"""TPOINT's alt-az terms as exact rotations and encoder corrections.
+
+Same names, parameters and signs as :mod:`pointax.terms.tpoint`: to first order in the
+coefficients each rigorous term equals its linear form (a test checks this), but the
+rigorous form is exact at any size and has no pole at the zenith. Where the linear form
+is already exact (elevation terms, azimuth zero point) the physical form is kept.
+
+Geometry (mount frame, see :class:`pointax.AltAzMount`)::
+
+    d = [AN, AW tilts] . Rz(-A) . [NPAE] . Rx(E) . [CA] . (0, 1, 0)
+
+Encoder terms (IA, IE, ACEC, ACES, ECEC, ECES, PAA1, PEE1) correct the encoder angles
+and are evaluated at the raw encoder reading, which is where an encoder error lives.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from ..rotations import rot_x, rot_y, rot_z
+from .base import Term, param
+from .tpoint import TF, TX
+
+__all__ = [
+    "IA",
+    "IE",
+    "CA",
+    "NPAE",
+    "AN",
+    "AW",
+    "TF",
+    "TX",
+    "ACEC",
+    "ACES",
+    "ECEC",
+    "ECES",
+    "PAA1",
+    "PEE1",
+    "RIGOROUS_TERMS",
+]
+
+
+class _EncoderTerm(Term):
+    """``coef * (f_A, f_E)(raw encoder)`` added to the encoder angles."""
+
+    coef: float = param(0.0)
+
+    def encoder_basis(self, az, el) -> tuple:
+        raise NotImplementedError
+
+    def encoder_offset(self, encoder):
+        f_az, f_el = self.encoder_basis(encoder[0], encoder[1])
+        return self.coef * jnp.stack(jnp.broadcast_arrays(jnp.asarray(f_az, float), jnp.asarray(f_el, float)))
+
+
+class IA(_EncoderTerm):
+    """Azimuth encoder zero point: true azimuth = encoder - IA."""
+
+    def encoder_basis(self, az, el):
+        return -1.0, 0.0
+
+
+class IE(_EncoderTerm):
+    """Elevation encoder zero point: true elevation = encoder + IE."""
+
+    def encoder_basis(self, az, el):
+        return 0.0, 1.0
+
+
+class ACEC(_EncoderTerm):
+    """Azimuth encoder eccentricity, cosine component: azimuth + ACEC cos(A_encoder)."""
+
+    def encoder_basis(self, az, el):
+        return jnp.cos(az), 0.0
+
+
+class ACES(_EncoderTerm):
+    """Azimuth encoder eccentricity, sine component: azimuth - ACES sin(A_encoder)."""
+
+    def encoder_basis(self, az, el):
+        return -jnp.sin(az), 0.0
+
+
+class ECEC(_EncoderTerm):
+    """Elevation encoder eccentricity, cosine component: elevation + ECEC cos(E_encoder)."""
+
+    def encoder_basis(self, az, el):
+        return 0.0, jnp.cos(el)
+
+
+class ECES(_EncoderTerm):
+    """Elevation encoder eccentricity, sine component: elevation + ECES sin(E_encoder)."""
+
+    def encoder_basis(self, az, el):
+        return 0.0, jnp.sin(el)
+
+
+class PAA1(_EncoderTerm):
+    """Azimuth encoder scale error: azimuth - PAA1 * A_encoder (radians)."""
+
+    def encoder_basis(self, az, el):
+        return -az, 0.0
+
+
+class PEE1(_EncoderTerm):
+    """Elevation encoder scale error: elevation + PEE1 * E_encoder (radians)."""
+
+    def encoder_basis(self, az, el):
+        return 0.0, el
+
+
+class CA(Term):
+    """Collimation: the boresight turned by ``-CA`` towards increasing azimuth, about
+    the tube's axis perpendicular to the elevation axis; a cross-elevation offset of
+    exactly ``-CA`` at every elevation (linear form ``dA = -CA sec E``)."""
+
+    coef: float = param(0.0)
+
+    def boresight_rotation(self, angles):
+        return rot_z(self.coef)
+
+
+class NPAE(Term):
+    """Elevation axis tilted by ``-NPAE`` from perpendicular to the azimuth axis, a
+    rotation about the horizontal axis perpendicular to the elevation axis (linear
+    form ``dA = -NPAE tan E``)."""
+
+    coef: float = param(0.0)
+
+    def axes_rotation(self, angles):
+        return rot_y(-self.coef)
+
+
+class AN(Term):
+    """Azimuth axis tilted by AN towards azimuth 0, a rotation by ``-AN`` about the
+    mount frame's x axis (linear form ``dA = -AN sin A tan E``, ``dE = -AN cos A``)."""
+
+    coef: float = param(0.0)
+
+    def base_rotation(self, angles):
+        return rot_x(-self.coef)
+
+
+class AW(Term):
+    """Azimuth axis tilted by AW towards azimuth 270 deg, a rotation by ``-AW`` about
+    the mount frame's y axis (linear form ``dA = -AW cos A tan E``, ``dE = +AW sin A``)."""
+
+    coef: float = param(0.0)
+
+    def base_rotation(self, angles):
+        return rot_y(-self.coef)
+
+
+RIGOROUS_TERMS: dict[str, type[Term]] = {
+    "IA": IA,
+    "IE": IE,
+    "CA": CA,
+    "NPAE": NPAE,
+    "AN": AN,
+    "AW": AW,
+    "TF": TF,
+    "TX": TX,
+    "ACEC": ACEC,
+    "ACES": ACES,
+    "ECEC": ECEC,
+    "ECES": ECES,
+    "PAA1": PAA1,
+    "PEE1": PEE1,
+}
+"""TPOINT name -> rigorous-form term class."""
