@@ -61,13 +61,14 @@ class Model(eqx.Module):
         self.terms = tuple(terms)
         self.fixed = frozenset(fixed)
         self.sky_iterations = int(sky_iterations)
+        for t in self.terms:
+            if not isinstance(t, Term):
+                hint = " (build terms with pointax.terms.tpoint(...))" if isinstance(t, str) else ""
+                raise TypeError(f"{t!r} is not a pointax.Term{hint}")
         names = [t.name for t in self.terms]
         duplicated = sorted({n for n in names if names.count(n) > 1})
         if duplicated:
             raise ValueError(f"terms appear more than once: {', '.join(duplicated)}")
-        for t in self.terms:
-            if not isinstance(t, Term):
-                raise TypeError(f"{t!r} is not a pointax.Term")
         unknown = sorted(self.fixed - set(self.parameter_names))
         if unknown:
             raise ValueError(
@@ -245,10 +246,3 @@ def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fix
     """
     return Model(AltAzMount(azimuth=azimuth), terms, fixed)
 
-
-def parameter_table(model: Model) -> np.ndarray:
-    """Parameter values in display units (numpy), in :attr:`Model.parameters` order."""
-    from .units import to_unit
-
-    values = np.asarray(model.values())
-    return np.array([to_unit(v, p.unit) for v, p in zip(values, model.parameters)])

@@ -127,6 +127,9 @@ class AltAzMount(Mount):
 
     def angles_of(self, direction, near):
         az, el = enu_to_azel(direction)  # the mount frame is ENU-like; safe at the zenith
+        # At the exact zenith every azimuth points the same way: keep the encoder's.
+        at_pole = direction[0] ** 2 + direction[1] ** 2 <= 1e-300
+        az = jnp.where(at_pole, near[0], az)
         # Two mechanical solutions point the same way: (az, el) and (az + pi, pi - el)
         # ("over the top"). Take the one nearer the encoders, on the encoder's branch.
         az_a = near[0] + wrap_pi(az - near[0])

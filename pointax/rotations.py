@@ -119,8 +119,8 @@ def _safe_atan2(y: Array, x: Array) -> Array:
 def enu_to_azel(v: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch"], Float[Array, "*batch"]]:
     """Azimuth (from North through East, in (-pi, pi]) and elevation of a direction.
 
-    ``v`` need not be normalised. At the zenith and nadir the azimuth is taken as 0 and
-    its gradient as zero.
+    ``v`` need not be normalised (its norm must lie between about 1e-150 and 1e150).
+    At the zenith and nadir the azimuth is taken as 0 and its gradient as zero.
     """
     v = jnp.asarray(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
@@ -169,7 +169,9 @@ def offset_direction(
 
 
 def angle_between(a: Float[ArrayLike, "*batch 3"], b: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
-    """Great-circle angle between two unit vectors (radians), accurate at small angles."""
+    """Great-circle angle between two unit vectors (radians), accurate at small angles.
+
+    Its gradient is undefined (NaN) where ``a == b``, the tip of the cone |angle|."""
     a, b = jnp.asarray(a), jnp.asarray(b)
     sin_part = jnp.linalg.norm(jnp.cross(a, b), axis=-1)
     return jnp.arctan2(sin_part, jnp.sum(a * b, axis=-1))

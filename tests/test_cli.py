@@ -1,0 +1,76 @@
+"""The pointax command: report, stable JSON keys, exit codes, error messages.
+
+Reference: TPOINT's own model file for the bundled run.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import MMT_DAT, MMT_MOD
+from pointax.cli import main
+from pointax.io import read_model
+
+
+@pytest.fixture(scope="module")
+def json_fit():
+    proc = subprocess.run(
+        [sys.executable, "-m", "pointax", "fit", str(MMT_DAT), "--azimuth", "S-E", "--json"],
+        capture_output=True, text=True, check=True,
+    )
+    return json.loads(proc.stdout)
+
+
+def test_json_has_the_stable_keys_and_tpoint_numbers(json_fit):
+    out = json_fit
+    for key in ("n_obs", "sky_rms_arcsec", "popn_sd_arcsec", "converged", "terms", "correlation"):
+        assert key in out
+    tpoint = read_model(MMT_MOD)
+    assert out["n_obs"] == 80 and out["converged"] is True
+    assert [t["name"] for t in out["terms"]] == tpoint.names
+    for got, want in zip(out["terms"], tpoint.terms):
+        assert set(got) >= {"name", "value_arcsec", "sigma_arcsec"}
+        assert got["value_arcsec"] == pytest.approx(want.value, abs=0.01)
+        assert got["sigma_arcsec"] == pytest.approx(want.sigma, abs=0.01)
+    assert out["sky_rms_arcsec"] == pytest.approx(tpoint.sky_rms, abs=0.01)
+    corr = np.array(out["correlation"])
+    assert corr.shape == (8, 8)
+    np.testing.assert_allclose(np.diag(corr), 1.0)
+
+
+def test_report_text(capsys, tmp_path):
+    written = tmp_path / "fit.mod"
+    code = main(["fit", str(MMT_DAT), "--terms", "IA IE NPAE CA AN AW TF TX", "--write-model", str(written)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "Sky RMS =" in out and "Popn SD =" in out and "IA" in out and "+1209.26" in out
+    assert read_model(written).n_obs == 80
+
+
+def test_rigorous_form_and_fixed_terms(capsys):
+    code = main(["fit", str(MMT_DAT), "--terms", "IA,IE,AN,AW", "--form", "rigorous", "--fix", "AN", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["form"] == "rigorous"
+    assert [t["name"] for t in out["terms"]] == ["IA", "IE", "AW"] and out["fixed"] == {"AN": 0.0}
+
+
+def test_bad_input_exit_code_and_message(capsys, tmp_path):
+    bad = tmp_path / "bad.dat"
+    bad.write_text("caption\n: ALTAZ\n+31 41 19.6\n10 20 30 4x\n")
+    assert main(["fit", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert f"{bad}:4:" in err and "field 4 (raw elevation)" in err
+    assert main(["fit", str(tmp_path / "missing.dat")]) == 2
+    assert "No such file" in capsys.readouterr().err
+    assert main(["fit", str(MMT_DAT), "--terms", "IA,NOPE"]) == 2
+    assert "unknown TPOINT term 'NOPE'" in capsys.readouterr().err
+
+
+def test_non_convergence_exit_code(capsys):
+    assert main(["fit", str(MMT_DAT), "--terms", "IA,IE", "--max-steps", "1"]) == 1
+    assert "NOT CONVERGED" in capsys.readouterr().out

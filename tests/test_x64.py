@@ -1,0 +1,29 @@
+"""float64 without touching the user's JAX settings (run in a fresh interpreter)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+from conftest import MMT_DAT
+
+
+def test_fit_is_float64_while_user_jax_stays_float32():
+    code = textwrap.dedent(
+        f"""
+        import jax, jax.numpy as jnp, numpy as np
+        import pointax as px
+        assert not jax.config.jax_enable_x64
+        run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth="S-E")
+        r = px.fit(px.AltAz(px.terms.tpoint("IA IE NPAE CA AN AW TF TX"), azimuth="S-E"), run)
+        assert r.values.dtype == jnp.float64, r.values.dtype
+        assert abs(r.value("IA") - 1209.2612) < 0.01, r.value("IA")
+        assert not jax.config.jax_enable_x64
+        assert jnp.ones(2).dtype == jnp.float32
+        print("ok")
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().endswith("ok")
