@@ -131,8 +131,35 @@ class TpointRun:
         return self.encoder.shape[0]
 
 
-def _strip_comment(line: str) -> str:
-    return line.split("!", 1)[0].strip()
+def _records(text: str):
+    """Yield ``(line number, text)`` for the caption (first) and each later record.
+
+    Comment lines ('!' first), trailing '!' comments and blank lines are skipped;
+    iteration stops at an END line, after yielding ``(line number, "END")``.
+    """
+    have_caption = False
+    for lineno, raw in enumerate(text.splitlines(), 1):
+        if raw.lstrip().startswith("!"):
+            continue
+        if not have_caption:
+            if raw.strip():
+                have_caption = True
+                yield lineno, raw.strip()
+            continue
+        line = raw.split("!", 1)[0].strip()
+        if not line:
+            continue
+        if line.upper() == "END":
+            yield lineno, "END"
+            return
+        yield lineno, line
+
+
+def _read_text(path: str) -> str:
+    try:
+        return Path(path).read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise TpointFormatError(path, None, f"not a text file ({err})") from None
 
 
 def _numbers(
@@ -192,17 +219,11 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
     params = None
     rows, extra, lines = [], [], []
     n_columns = None
-    for lineno, raw in enumerate(text.splitlines(), 1):
-        if raw.lstrip().startswith("!"):
-            continue
+    for lineno, line in _records(text):
         if caption is None:
-            if raw.strip():
-                caption = raw.strip()
+            caption = line
             continue
-        line = _strip_comment(raw)
-        if not line:
-            continue
-        if line.upper() == "END":
+        if line == "END":
             break
         if line.startswith(":"):
             if params is not None:
@@ -280,11 +301,7 @@ def read_tpoint(path: str | os.PathLike, azimuth: str = "N-E") -> TpointRun:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as err:
-        raise TpointFormatError(path, None, f"not a text file ({err})") from None
-    return parse_tpoint(text, path, azimuth)
+    return parse_tpoint(_read_text(path), path, azimuth)
 
 
 # --------------------------------------------------------------------------- models
@@ -339,17 +356,11 @@ def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
     header: dict = {}
     terms: list[ModelTerm] = []
     ended = False
-    for lineno, raw in enumerate(text.splitlines(), 1):
-        if raw.lstrip().startswith("!"):
-            continue
+    for lineno, line in _records(text):
         if caption is None:
-            if raw.strip():
-                caption = raw.strip()
+            caption = line
             continue
-        line = _strip_comment(raw)
-        if not line:
-            continue
-        if line.upper() == "END":
+        if line == "END":
             ended = True
             break
         tokens = line.split()
@@ -399,11 +410,7 @@ def read_model(path: str | os.PathLike) -> TpointModelFile:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as err:
-        raise TpointFormatError(path, None, f"not a text file ({err})") from None
-    return parse_model(text, path)
+    return parse_model(_read_text(path), path)
 
 
 def format_model(
