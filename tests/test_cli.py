@@ -6,6 +6,7 @@ Reference: TPOINT's own model file for the bundled run.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -17,13 +18,29 @@ from pointax.cli import main
 from pointax.io import read_model
 
 
+@pytest.fixture(autouse=True)
+def no_compilation_cache(monkeypatch):
+    """Keep the tests from writing JAX's compilation cache into the home folder."""
+    monkeypatch.setenv("POINTAX_JAX_CACHE", "")
+
+
 @pytest.fixture(scope="module")
 def json_fit():
     proc = subprocess.run(
         [sys.executable, "-m", "pointax", "fit", str(MMT_DAT), "--azimuth", "S-E", "--json"],
-        capture_output=True, text=True, check=True,
+        capture_output=True, text=True, check=True, env={**os.environ, "POINTAX_JAX_CACHE": ""},
     )
     return json.loads(proc.stdout)
+
+
+def test_compilation_cache_is_used_when_set(tmp_path):
+    cache = tmp_path / "cache"
+    env = {**os.environ, "POINTAX_JAX_CACHE": str(cache)}
+    cmd = [sys.executable, "-m", "pointax", "fit", str(MMT_DAT), "--terms", "IA,IE", "--json"]
+    first = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True, env=env).stdout)
+    assert any(cache.iterdir())
+    second = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True, env=env).stdout)
+    assert first["terms"] == second["terms"]
 
 
 def test_json_has_the_stable_keys_and_tpoint_numbers(json_fit):
