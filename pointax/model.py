@@ -8,7 +8,6 @@ from collections.abc import Iterable, Sequence
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
@@ -98,25 +97,38 @@ class Model(eqx.Module):
         """The parameters a fit adjusts."""
         return tuple(p for p in self.parameters if p.name not in self.fixed)
 
-    def values(self, which: str = "all") -> Float[Array, " n"]:
-        """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'."""
-        params = self.parameters if which == "all" else self.free_parameters
-        return jnp.stack([jnp.asarray(getattr(self.terms[p.term], p.field), float) for p in params]) if params else jnp.zeros((0,))
+    def _select(self, which: str) -> tuple[ParameterInfo, ...]:
+        if which == "all":
+            return self.parameters
+        if which == "free":
+            return self.free_parameters
+        raise ValueError(f"which must be 'all' or 'free', got {which!r}")
 
-    def with_values(self, values: Float[ArrayLike, " n"], which: str = "all") -> "Model":
-        """A copy with parameter values replaced from a vector (see :meth:`values`)."""
-        params = self.parameters if which == "all" else self.free_parameters
-        values = jnp.asarray(values)
-        if values.shape != (len(params),):
-            raise ValueError(f"expected {len(params)} values, got shape {values.shape}")
+    def _replace(self, params: Sequence[ParameterInfo], values: Sequence) -> "Model":
+        """A copy with the parameter fields ``params`` set to ``values``."""
         if not params:
             return self
         return eqx.tree_at(
             lambda m: [getattr(m.terms[p.term], p.field) for p in params],
             self,
-            [values[k] for k in range(len(params))],
+            list(values),
             is_leaf=lambda x: x is None,
         )
+
+    def values(self, which: str = "all") -> Float[Array, " n"]:
+        """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'."""
+        params = self._select(which)
+        if not params:
+            return jnp.zeros((0,))
+        return jnp.stack([jnp.asarray(getattr(self.terms[p.term], p.field), float) for p in params])
+
+    def with_values(self, values: Float[ArrayLike, " n"], which: str = "all") -> "Model":
+        """A copy with parameter values replaced from a vector (see :meth:`values`)."""
+        params = self._select(which)
+        values = jnp.asarray(values)
+        if values.shape != (len(params),):
+            raise ValueError(f"expected {len(params)} values, got shape {values.shape}")
+        return self._replace(params, [values[k] for k in range(len(params))])
 
     def get(self, name: str):
         """Value of the parameter called ``name`` (internal units)."""
@@ -134,13 +146,7 @@ class Model(eqx.Module):
         for name in values:
             if name not in info:
                 raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
-        params = [info[n] for n in values]
-        return eqx.tree_at(
-            lambda m: [getattr(m.terms[p.term], p.field) for p in params],
-            self,
-            [values[p.name] for p in params],
-            is_leaf=lambda x: x is None,
-        )
+        return self._replace([info[n] for n in values], values.values())
 
     def fix(self, *names: str) -> "Model":
         """A copy with ``names`` held fixed in fits."""
@@ -158,7 +164,7 @@ class Model(eqx.Module):
     def without_terms(self, *names: str) -> "Model":
         """A copy without the terms called ``names``."""
         keep = tuple(t for t in self.terms if t.name not in names)
-        kept = {p for t in keep for p in Model(self.mount, (t,)).parameter_names}
+        kept = {p.name for p in self.parameters if self.terms[p.term].name not in names}
         return Model(self.mount, keep, self.fixed & kept, self.sky_iterations)
 
     # ----------------------------------------------------------------- evaluation

@@ -21,7 +21,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .rotations import enu_to_azel, rot_x, rot_z, wrap_pi
+from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, wrap_pi
 
 __all__ = ["Mount", "AltAzMount", "AZIMUTH_CONVENTIONS"]
 
@@ -121,9 +121,8 @@ class AltAzMount(Mount):
         return rot_x(angle)
 
     def direction(self, angles):
-        az, el = angles[0], angles[1]
-        cos_el = jnp.cos(el)
-        return jnp.stack([jnp.sin(az) * cos_el, jnp.cos(az) * cos_el, jnp.sin(el)])
+        # In the mount frame azimuth runs from +y through +x, exactly as N-E does in ENU.
+        return azel_to_enu(angles[0], angles[1])
 
     def angles_of(self, direction, near):
         az, el = enu_to_azel(direction)  # the mount frame is ENU-like; safe at the zenith

@@ -48,6 +48,8 @@ def test_parameter_names_units_and_editing():
         px.AltAz([px.terms.IA(), px.terms.rigorous.IA()])
     with pytest.raises(ValueError, match="expected 3 values"):
         model.with_values(jnp.zeros(2))
+    with pytest.raises(ValueError, match="which must be 'all' or 'free'"):
+        model.values("fixed")
     with pytest.raises(TypeError, match="not a pointax.Term"):
         px.AltAz(["IA"])
     with pytest.raises(ValueError, match="unknown azimuth convention"):

@@ -43,7 +43,21 @@ __all__ = [
     "rigorous",
     "FORMS",
     "BASIC_ALTAZ",
-    *LINEAR_TERMS,
+    "IA",
+    "IE",
+    "CA",
+    "NPAE",
+    "AN",
+    "AW",
+    "TF",
+    "TX",
+    "ACEC",
+    "ACES",
+    "ECEC",
+    "ECES",
+    "PAA1",
+    "PEE1",
+    "LINEAR_TERMS",
 ]
 
 FORMS = {"linear": LINEAR_TERMS, "rigorous": rigorous.RIGOROUS_TERMS}

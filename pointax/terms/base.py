@@ -23,9 +23,15 @@ import dataclasses
 from typing import Any
 
 import equinox as eqx
+import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-__all__ = ["Term", "param", "param_fields", "param_unit"]
+__all__ = ["Term", "param", "param_fields", "param_unit", "angle_pair"]
+
+
+def angle_pair(axis1, axis2) -> Float[Array, "2"]:
+    """Stack two per-axis values (scalars or arrays, Python numbers allowed) into ``(2,)``."""
+    return jnp.stack(jnp.broadcast_arrays(jnp.asarray(axis1, float), jnp.asarray(axis2, float)))
 
 
 def param(default: float = 0.0, *, unit: str = "arcsec", **kwargs) -> Any:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..rotations import rot_x, rot_y, rot_z
-from .base import Term, param
+from .base import Term, angle_pair, param
 from .tpoint import TF, TX
 
 __all__ = [
@@ -49,8 +49,7 @@ class _EncoderTerm(Term):
         raise NotImplementedError
 
     def encoder_offset(self, encoder):
-        f_az, f_el = self.encoder_basis(encoder[0], encoder[1])
-        return self.coef * jnp.stack(jnp.broadcast_arrays(jnp.asarray(f_az, float), jnp.asarray(f_el, float)))
+        return self.coef * angle_pair(*self.encoder_basis(encoder[0], encoder[1]))
 
 
 class IA(_EncoderTerm):

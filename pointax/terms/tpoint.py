@@ -52,7 +52,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .base import Term, param
+from .base import Term, angle_pair, param
 
 __all__ = [
     "LinearTerm",
@@ -84,8 +84,7 @@ class LinearTerm(Term):
         raise NotImplementedError
 
     def sky_offset(self, angles):
-        f_az, f_el = self.basis(angles[0], angles[1])
-        return self.coef * jnp.stack(jnp.broadcast_arrays(jnp.asarray(f_az, float), jnp.asarray(f_el, float)))
+        return self.coef * angle_pair(*self.basis(angles[0], angles[1]))
 
 
 class IA(LinearTerm):
