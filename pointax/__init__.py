@@ -12,8 +12,8 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
 
 from . import io, rotations, terms, units
 from .fit import FitResult, fit, residuals
-from .model import AltAz, Model, ParameterInfo
-from .mounts import AZIMUTH_CONVENTIONS, AltAzMount, Mount
+from .model import AltAz, Model, ParameterInfo, Turntable
+from .mounts import AZIMUTH_CONVENTIONS, AltAzMount, Mount, TurntableMount
 from .observations import Observations
 from .simulate import simulate
 from .terms import Term, param
@@ -41,5 +41,7 @@ __all__ = [
     "rotations",
     "simulate",
     "terms",
+    "Turntable",
+    "TurntableMount",
     "units",
 ]

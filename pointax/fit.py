@@ -13,6 +13,12 @@ With weights ``w`` they are normalised to mean 1 over the used observations and 
 as ``sqrt(w_i) r_i``; with unit weights this is TPOINT. Observations with weight 0 are
 ignored (and may hold NaN).
 
+Robust fits (``loss="cauchy"``, ``"huber"`` or ``"soft_l1"``) minimise
+``sum_i rho(|r_i|^2)`` with the scale chosen from the data, flag observations whose
+residual exceeds ``reject`` robust standard deviations as outliers, and finish with a
+plain least-squares fit of the rest, so values, sigmas and statistics keep TPOINT's
+meaning (on the observations kept).
+
 The fit knows nothing of any particular term: parameters are whatever the model's
 terms declare, and the Jacobian comes from ``jax.jacfwd``.
 """
@@ -35,7 +41,7 @@ from .observations import Observations
 from .rotations import tangent_offset
 from .units import ARCSEC, UNITS
 
-__all__ = ["fit", "FitResult", "SOLVERS", "residuals", "CORRELATION_WARNING"]
+__all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma"]
 
 SOLVERS = {
     "lm": ("Levenberg-Marquardt", optx.LevenbergMarquardt),
@@ -43,6 +49,27 @@ SOLVERS = {
     "dogleg": ("Dogleg", optx.Dogleg),
 }
 """Solver name -> (display name, optimistix class)."""
+
+
+def _rho_cauchy(z, c2):
+    return c2 * jnp.log1p(z / c2)
+
+
+def _rho_huber(z, c2):
+    c = jnp.sqrt(c2)
+    return jnp.where(z <= c2, z, 2 * c * jnp.sqrt(jnp.maximum(z, c2)) - c2)
+
+
+def _rho_soft_l1(z, c2):
+    return 2 * c2 * (jnp.sqrt(1 + z / c2) - 1)
+
+
+LOSSES = {"linear": None, "huber": _rho_huber, "soft_l1": _rho_soft_l1, "cauchy": _rho_cauchy}
+"""Loss name -> ``rho(z, c^2)`` of the squared residual norm ``z`` (as scipy's
+``least_squares`` defines them, scaled by ``c^2``); 'linear' is plain least squares."""
+
+RAYLEIGH_MEDIAN = math.sqrt(2 * math.log(2))
+"""Median of the norm of a 2-D Gaussian offset with unit standard deviation per axis."""
 
 CORRELATION_WARNING = 0.95
 """Reports warn about parameter pairs whose |correlation| exceeds this."""
@@ -77,7 +104,11 @@ class FitResult(eqx.Module):
         result: optimistix's result code.
         degenerate: ``(M,)`` parameters lying in a (near-)null direction of the
             Jacobian: the data cannot separate them from the others flagged.
+        outliers: ``(N,)`` observations a robust fit rejected (never for loss 'linear').
+        robust_scale: robust per-axis standard deviation (radians) outliers were judged
+            by (0 for loss 'linear').
         solver: solver name.
+        loss: loss name (:data:`LOSSES`).
     """
 
     model: Model
@@ -94,10 +125,14 @@ class FitResult(eqx.Module):
     converged: Bool[Array, ""]
     result: optx.RESULTS
     degenerate: Bool[Array, " m"]
+    outliers: Bool[Array, " n"]
+    robust_scale: Float[Array, ""]
     names: tuple[str, ...] = eqx.field(static=True)
     units: tuple[str, ...] = eqx.field(static=True)
     solver: str = eqx.field(static=True)
     caption: str = eqx.field(static=True, default="")
+    loss: str = eqx.field(static=True, default="linear")
+    reject: float = eqx.field(static=True, default=0.0)
 
     # ------------------------------------------------------------ accessors
 
@@ -136,6 +171,15 @@ class FitResult(eqx.Module):
             {"name": n, "value": float(v / UNITS[u]), "sigma": float(s / UNITS[u]), "unit": u}
             for n, u, v, s in zip(self.names, self.units, vals, sigs)
         ]
+
+    def outlier_indices(self) -> list[int]:
+        """0-based indices of the observations a robust fit flagged as outliers."""
+        return [int(i) for i in np.flatnonzero(np.asarray(self.outliers))]
+
+    @property
+    def _residual_unit(self) -> str:
+        # Heliostat engineers think in mrad, telescope people in arcsec.
+        return "mrad" if "mrad" in self.units else "arcsec"
 
     def correlated_pairs(self, threshold: float = CORRELATION_WARNING) -> list[tuple[str, str, float]]:
         """Parameter pairs with |correlation| above ``threshold``."""
@@ -179,6 +223,13 @@ class FitResult(eqx.Module):
             else f"NOT CONVERGED after {int(self.iterations)} iterations"
         )
         lines.append(f"{solver_name} fit of {int(self.n_obs)} observations: {status}")
+        flagged = self.outlier_indices()
+        if self.loss != "linear":
+            lines.append(
+                f"{self.loss} loss; robust sigma {float(self.robust_scale) / UNITS[self._residual_unit]:.4g} "
+                f"{self._residual_unit}; {len(flagged)} outlier(s) beyond {self.reject:g} sigma"
+                + (f": observations {', '.join(str(i + 1) for i in flagged)}" if flagged else "")
+            )
         lines.append("")
         width = max([9] + [len(p.name) for p in self.model.parameters])
         lines.append(f"       {'coeff':<{width}s}        value       sigma")
@@ -191,9 +242,11 @@ class FitResult(eqx.Module):
             unit = "" if p.unit == "arcsec" else f"  ({p.unit})"
             lines.append(f"       {p.name:<{width}s} {v:+12.4f}       fixed{unit}")
         lines.append("")
-        lines.append(f"Sky RMS = {float(self.sky_rms) / ARCSEC:9.4f}")
-        popn = float(self.popn_sd) / ARCSEC
-        lines.append(f"Popn SD = {popn:9.4f}" if math.isfinite(popn) else "Popn SD =   undefined")
+        unit = self._residual_unit
+        label = "" if unit == "arcsec" else f" {unit}"  # TPOINT prints arcsec bare
+        lines.append(f"Sky RMS = {float(self.sky_rms) / UNITS[unit]:9.4f}{label}")
+        popn = float(self.popn_sd) / UNITS[unit]
+        lines.append(f"Popn SD = {popn:9.4f}{label}" if math.isfinite(popn) else "Popn SD =   undefined")
         warnings = self.warnings()
         if warnings:
             lines.append("")
@@ -233,6 +286,8 @@ class FitResult(eqx.Module):
                 if p.name in self.model.fixed
             },
             "correlation": [[number(c) for c in row] for row in corr],
+            "loss": self.loss,
+            "outliers": self.outlier_indices(),
             "warnings": self.warnings(),
         }
 
@@ -289,26 +344,85 @@ def _covariance(jac: Array, scale: Array) -> tuple[Array, Array]:
     return cov, degenerate
 
 
-def _fit(
-    model: Model, obs: Observations, solver: str, max_steps: int, rtol: float, atol: float, caption: str = ""
-) -> FitResult:
-    used = obs.weight > 0
-    n_obs = jnp.sum(used)
-    # Weights normalised to mean 1 over the used observations.
-    weight = jnp.where(used, obs.weight, 0.0)
-    weight = weight * n_obs / jnp.sum(weight)
+def robust_sigma(r: Float[Array, "n 2"], used: Bool[Array, " n"]) -> Float[Array, ""]:
+    """Robust per-axis standard deviation of 2-D residuals: the median residual norm
+    over the ``used`` observations divided by its Gaussian expectation
+    (:data:`RAYLEIGH_MEDIAN` sigma); insensitive to up to half the rows being wild."""
+    z = jnp.sum(jnp.where(used[:, None], r, 0.0) ** 2, axis=-1)
+    norm = jnp.where(used, jnp.sqrt(jnp.where(used, z, 1.0)), jnp.nan)
+    return jnp.nanmedian(norm) / RAYLEIGH_MEDIAN
+
+
+def _normalised(weight: Array, used: Array) -> Array:
+    """Weights of the ``used`` rows scaled to mean 1; 0 elsewhere."""
+    weight = jnp.where(used, weight, 0.0)
+    return weight * jnp.sum(used) / jnp.sum(weight)
+
+
+def _least_squares(model, obs, weight, solver, max_steps, rtol, atol, rho=None, c2=None):
+    """One optimistix least-squares solve of the free parameters; ``rho`` (with the
+    squared scale ``c2``) turns it into a robust fit by rescaling each observation's
+    residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to ``sum rho``."""
     sqrt_w = jnp.sqrt(weight)[:, None]
 
-    def weighted(y, _):
-        return residuals(model.with_values(y, "free"), obs) * sqrt_w
+    def fn(y, _):
+        r = residuals(model.with_values(y, "free"), obs) * sqrt_w
+        if rho is None:
+            return r
+        z = jnp.sum(r**2, axis=-1)
+        positive = z > 0
+        safe = jnp.where(positive, z, 1.0)
+        factor = jnp.where(positive, jnp.sqrt(rho(safe, c2) / safe), 1.0)
+        return r * factor[:, None]
 
-    y0 = model.values("free")
     optimiser = SOLVERS[solver][1](rtol=rtol, atol=atol)
-    sol = optx.least_squares(weighted, optimiser, y0, max_steps=max_steps, throw=False)
+    sol = optx.least_squares(fn, optimiser, model.values("free"), max_steps=max_steps, throw=False)
+    return sol, fn
+
+
+def _fit(
+    model: Model,
+    obs: Observations,
+    solver: str,
+    max_steps: int,
+    rtol: float,
+    atol: float,
+    caption: str = "",
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    reject: float = 3.0,
+) -> FitResult:
+    """The whole fit, pure JAX (jit- and vmap-able); see :func:`fit` for the arguments."""
+    given = obs.weight > 0
+    weight = _normalised(obs.weight, given)
+    rho = LOSSES[loss]
+    iterations = jnp.asarray(0)
+    robust_ok = jnp.asarray(True)
+    outliers = jnp.zeros(given.shape, bool)
+    scale = jnp.asarray(0.0)
+    if rho is not None:
+        # Two passes when the scale is automatic: the first starts from the scale of
+        # the starting model's residuals (may be large), the second from the fit's.
+        auto = loss_scale is None
+        scale = robust_sigma(residuals(model, obs), given)
+        for _ in range(2 if auto else 1):
+            # Soft margin c: two robust sigmas unless given.
+            c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(loss_scale) ** 2, 1e-30)
+            sol, _ = _least_squares(model, obs, weight, solver, max_steps, rtol, atol, rho, c2)
+            model = model.with_values(sol.value, "free")
+            iterations = iterations + sol.stats["num_steps"]
+            robust_ok = robust_ok & (sol.result == optx.RESULTS.successful)
+            scale = robust_sigma(residuals(model, obs), given)
+        r = residuals(model, obs)
+        outliers = given & (jnp.sqrt(jnp.sum(r**2, axis=-1)) > reject * scale)
+    used = given & ~outliers
+    n_obs = jnp.sum(used)
+    weight = _normalised(obs.weight, used)
+    sol, weighted = _least_squares(model, obs, weight, solver, max_steps, rtol, atol)
     y = sol.value
     fitted = model.with_values(y, "free")
-    r = residuals(fitted, obs)
-    rw = r * sqrt_w
+    r = residuals(fitted, obs)  # outliers keep their residuals; statistics skip them
+    rw = r * jnp.sqrt(weight)[:, None]
     sky_rms = jnp.sqrt(jnp.sum(rw**2) / n_obs)
     m = y.shape[0]
     popn_sd = jnp.where(n_obs > m, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - m, 1)), jnp.inf)
@@ -318,8 +432,8 @@ def _fit(
     safe = jnp.where(degenerate | (sigmas == 0), 1.0, sigmas)
     corr = cov / (safe[:, None] * safe[None, :])
     corr = jnp.where(degenerate[:, None] | degenerate[None, :], jnp.nan, corr)
-    finite = jnp.all(jnp.isfinite(r)) & jnp.all(jnp.isfinite(y))
-    converged = (sol.result == optx.RESULTS.successful) & finite
+    finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
+    converged = (sol.result == optx.RESULTS.successful) & robust_ok & finite
     params = model.free_parameters
     return FitResult(
         model=fitted,
@@ -332,14 +446,18 @@ def _fit(
         n_obs=n_obs,
         sky_rms=sky_rms,
         popn_sd=popn_sd,
-        iterations=sol.stats["num_steps"],
+        iterations=iterations + sol.stats["num_steps"],
         converged=converged,
         result=sol.result,
         degenerate=degenerate,
+        outliers=outliers,
+        robust_scale=scale,
         names=tuple(p.name for p in params),
         units=tuple(p.unit for p in params),
         solver=solver,
         caption=caption,
+        loss=loss,
+        reject=float(reject) if rho is not None else 0.0,
     )
 
 
@@ -358,6 +476,9 @@ def fit(
     rtol: float = 1e-10,
     atol: float = 1e-13,
     caption: str | None = None,
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    reject: float = 3.0,
 ) -> FitResult:
     """Fit the free parameters of ``model`` to pointing observations.
 
@@ -371,6 +492,13 @@ def fit(
         max_steps: solver step limit; a fit that reaches it reports ``converged=False``.
         rtol, atol: optimistix tolerances on the parameters (radians) and the cost.
         caption: title line for the report (default: the run's caption, if any).
+        loss: 'linear' (least squares, default) or a robust loss from :data:`LOSSES`
+            ('cauchy' is the most forgiving of gross outliers).
+        loss_scale: soft margin of the robust loss, radians (default: twice the robust
+            standard deviation of the residuals, re-estimated after a first pass).
+        reject: with a robust loss, observations whose residual norm exceeds
+            ``reject`` robust standard deviations are flagged as ``outliers`` and left
+            out of the final least-squares fit that gives values and statistics.
 
     Returns:
         A :class:`FitResult`. A fit that fails to converge does not raise: check
@@ -378,6 +506,12 @@ def fit(
     """
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; expected one of {sorted(SOLVERS)}")
+    if loss not in LOSSES:
+        raise ValueError(f"unknown loss {loss!r}; expected one of {sorted(LOSSES)}")
+    if loss_scale is not None and not (math.isfinite(loss_scale) and loss_scale > 0):
+        raise ValueError(f"loss_scale must be a positive number of radians, got {loss_scale!r}")
+    if not reject > 0:
+        raise ValueError(f"reject must be positive, got {reject!r}")
     obs = as_observations(data)
     _check_convention(model, obs)
     if weights is not None:
@@ -396,4 +530,4 @@ def fit(
     obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), obs)
     if caption is None:
         caption = getattr(data, "caption", "") or ""
-    return _fit_jit(model, obs, solver, max_steps, rtol, atol, caption)
+    return _fit_jit(model, obs, solver, max_steps, rtol, atol, caption, loss, loss_scale, reject)

@@ -11,10 +11,13 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
-from .mounts import AltAzMount, Mount
+from .mounts import AltAzMount, Mount, TurntableMount
+from .observations import Observations
+from .terms import turntable as turntable_terms
+from .terms.sun_vector import estimate_zeros
 from .terms.base import Term, param_fields, param_unit
 
-__all__ = ["Model", "ParameterInfo", "AltAz"]
+__all__ = ["Model", "ParameterInfo", "AltAz", "Turntable"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,10 +182,12 @@ class Model(eqx.Module):
         return rotation
 
     def corrected_encoder(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
-        """Encoder angles after the terms' encoder corrections (one observation)."""
-        angles = encoder
+        """Axis angles after the terms' encoder corrections (one observation's raw
+        reading; see :meth:`pointax.Mount.axis_angles`)."""
+        nominal = self.mount.axis_angles(encoder)
+        angles = nominal
         for term in self.terms:
-            offset = term.encoder_offset(encoder)
+            offset = term.encoder_offset(nominal)
             if offset is not None:
                 angles = angles + offset
         return angles
@@ -220,7 +225,7 @@ class Model(eqx.Module):
     def sky_angles(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
         """Where the mount points, as angles in the mount's convention (one observation)."""
         encoder = jnp.asarray(encoder)
-        return self.mount.angles_of(self.mount_direction(encoder), near=encoder)
+        return self.mount.angles_of(self.mount_direction(encoder), near=self.mount.axis_angles(encoder))
 
     def direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
         """Pointing direction (ENU unit vector) for one observation's raw encoder angles."""
@@ -252,3 +257,29 @@ def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fix
     """
     return Model(AltAzMount(azimuth=azimuth), terms, fixed)
 
+
+
+def Turntable(
+    terms: str | Sequence[Term] = "full",
+    fixed: Iterable[str] = (),
+    start: Observations | None = None,
+) -> Model:
+    """A sun-tracking mirror turntable model: :class:`TurntableMount` with ``terms``.
+
+    Args:
+        terms: 'full' (the paper's five parameters), 'simple' (alpha0, beta0), names
+            (see :func:`pointax.terms.turntable`) or a sequence of :class:`Term`.
+        fixed: names of parameters held fixed in fits.
+        start: observations to take starting values of the encoder zeros from
+            (:func:`pointax.terms.sun_vector.estimate_zeros`); the zeros may be far from
+            0 and a least-squares fit needs a start within a few degrees.
+    """
+    if isinstance(terms, str):
+        terms = turntable_terms(terms)
+    model = Model(TurntableMount(), terms, fixed)
+    if start is not None:
+        alpha0, beta0 = estimate_zeros(start.encoder, start.target)
+        names = set(model.parameter_names)
+        zeros = {k: v for k, v in (("alpha0", alpha0), ("beta0", beta0)) if k in names}
+        model = model.set(**zeros)
+    return model

@@ -21,9 +21,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, wrap_pi
+from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_y, rot_z, wrap_pi
 
-__all__ = ["Mount", "AltAzMount", "AZIMUTH_CONVENTIONS"]
+__all__ = ["Mount", "AltAzMount", "TurntableMount", "HeliostatMount", "AZIMUTH_CONVENTIONS", "nearest_solution"]
 
 
 # Frame changes F from the alt-az mount frame (where azimuth runs from +y through +x)
@@ -62,6 +62,19 @@ class Mount(eqx.Module):
     def convention(self) -> str | None:
         """Name of the angle convention that encoder readings must follow, if any."""
         return None
+
+    def axis_angles(self, reading: Float[Array, "2"]) -> Float[Array, "2"]:
+        """Nominal axis angles (radians) for one raw reading of the two axes.
+
+        The identity for mounts whose encoders read angles; a mount driven by linear
+        actuators (:class:`pointax.HeliostatMount`) turns actuator increments into joint
+        angles here. Terms' ``encoder_offset`` corrections are added to these angles.
+        """
+        return reading
+
+    def readings_of(self, angles: Float[Array, "2"]) -> Float[Array, "2"]:
+        """Inverse of :meth:`axis_angles`: the raw reading that gives ``angles``."""
+        return angles
 
     def axis1(self, angle: Float[Array, ""]) -> Float[Array, "3 3"]:
         """Rotation of the first (fixed) axis by its angle."""
@@ -126,15 +139,167 @@ class AltAzMount(Mount):
 
     def angles_of(self, direction, near):
         az, el = enu_to_azel(direction)  # the mount frame is ENU-like; safe at the zenith
-        # At the exact zenith every azimuth points the same way: keep the encoder's.
-        at_pole = direction[0] ** 2 + direction[1] ** 2 <= 1e-300
-        az = jnp.where(at_pole, near[0], az)
-        # Two mechanical solutions point the same way: (az, el) and (az + pi, pi - el)
-        # ("over the top"). Take the one nearer the encoders, on the encoder's branch.
-        az_a = near[0] + wrap_pi(az - near[0])
-        az_b = near[0] + wrap_pi(az + jnp.pi - near[0])
-        el_b = jnp.pi - el
-        dist_a = jnp.abs(wrap_pi(az - near[0])) + jnp.abs(el - near[1])
-        dist_b = jnp.abs(wrap_pi(az + jnp.pi - near[0])) + jnp.abs(el_b - near[1])
-        use_a = dist_a <= dist_b
-        return jnp.stack([jnp.where(use_a, az_a, az_b), jnp.where(use_a, el, el_b)])
+        return nearest_solution(az, el, near, _on_axis(direction, 2))
+
+
+def _on_axis(direction, axis: int):
+    """Whether ``direction`` lies exactly along coordinate axis ``axis`` (0, 1 or 2)."""
+    others = [k for k in range(3) if k != axis]
+    return direction[others[0]] ** 2 + direction[others[1]] ** 2 <= 1e-300
+
+
+def nearest_solution(a1, a2, near, at_pole=False):
+    """Of the two mechanical solutions ``(a1, a2)`` and ``(a1 + pi, pi - a2)`` ("over
+    the top") of a two-axis mount, the one nearer ``near``, with axis 1 on the branch
+    of ``near`` (within pi of it). At the pole (``at_pole``: the direction lies along
+    the first axis) every axis-1 angle points the same way: ``near``'s is kept."""
+    a1 = jnp.where(at_pole, near[0], a1)
+    a1_a = near[0] + wrap_pi(a1 - near[0])
+    a1_b = near[0] + wrap_pi(a1 + jnp.pi - near[0])
+    a2_b = jnp.pi - a2
+    dist_a = jnp.abs(a1_a - near[0]) + jnp.abs(a2 - near[1])
+    dist_b = jnp.abs(a1_b - near[0]) + jnp.abs(a2_b - near[1])
+    use_a = dist_a <= dist_b
+    return jnp.stack([jnp.where(use_a, a1_a, a1_b), jnp.where(use_a, a2, a2_b)])
+
+
+class TurntableMount(Mount):
+    """Sun-tracking mirror turntable: an azimuth turntable carrying a pitch fork, the
+    mirror normal as the boresight (the sun-vector calibration paper, Acta Optica
+    Sinica 39(11) 1128001)::
+
+        S = Rz'(alpha0 - alpha) . Rx(beta - beta0) . (0, 1, 0)      in East-North-Up
+
+    with ``Rz'(t) = [[cos t, sin t, 0], [-sin t, cos t, 0], [0, 0, 1]]`` (= ``rot_z(-t)``).
+    The raw readings are the encoder angles ``(alpha, beta)`` in radians: the pitch
+    ``beta - beta0`` is the elevation of the normal, and the azimuth encoder turns
+    *against* the azimuth (North through East): ``alpha - alpha0 = 360 deg - azimuth``,
+    as in the paper's Table 1. The zeros ``alpha0, beta0``, the level tilts and the
+    axis non-perpendicularity are terms (:func:`pointax.terms.turntable`).
+    """
+
+    axis_names: ClassVar[tuple[str, str]] = ("alpha", "beta")
+
+    @property
+    def boresight(self) -> Float[Array, "3"]:
+        return jnp.array([0.0, 1.0, 0.0])
+
+    @property
+    def convention(self) -> str:
+        return "turntable"
+
+    def axis1(self, angle):
+        # Rz'(-angle): the azimuth encoder counts against North-through-East azimuth.
+        return rot_z(angle)
+
+    def axis2(self, angle):
+        return rot_x(angle)
+
+    def direction(self, angles):
+        return azel_to_enu(-angles[0], angles[1])
+
+    def angles_of(self, direction, near):
+        az, el = enu_to_azel(direction)
+        return nearest_solution(-az, el, near, _on_axis(direction, 2))
+
+
+class HeliostatMount(Mount):
+    """A tilt-tilt heliostat driven by two linear actuators (the PAINT / DLR Juelich
+    heliostats). The raw readings are actuator increments (motor steps); the mirror
+    normal is the boresight::
+
+        n = Re(theta1 - pi/2) . Ru(theta2) . (0, -1, 0)       (= Re(theta1) Rn(theta2) (0, 0, 1))
+
+    in East-North-Up, with right-handed rotations Re, Rn, Ru about East, North, Up:
+    ``theta1`` is the mirror's zenith angle. Axis tilts (``t1n, t1u, t2e, t2n``) and
+    joint-angle zeros are terms (:mod:`pointax.terms.heliostat`).
+
+    Each axis's actuator turns increments into a joint angle by the law of cosines::
+
+        s = increments / increment + initial_stroke            stroke, m
+        phi(s) = arccos((offset^2 + pivot_radius^2 - s^2) / (2 offset pivot_radius))
+        theta = initial_angle + sign (phi(s0) - phi(s))        s0 = initial_stroke
+
+    with ``sign = +1`` for clockwise axis movement, ``-1`` otherwise.
+
+    Fields are ``(2,)`` arrays, one value per axis (SI units, radians). They are the
+    nominal geometry, not fitted parameters; build the mount from a PAINT heliostat
+    file with :meth:`from_paint`.
+    """
+
+    increment: Float[Array, "2"]
+    initial_stroke: Float[Array, "2"]
+    offset: Float[Array, "2"]
+    pivot_radius: Float[Array, "2"]
+    initial_angle: Float[Array, "2"]
+    sign: Float[Array, "2"]
+    axis_names: ClassVar[tuple[str, str]] = ("axis1", "axis2")
+
+    def __init__(self, increment, initial_stroke, offset, pivot_radius, initial_angle, clockwise):
+        def pair(x, name):
+            x = jnp.asarray(x, float)
+            if x.shape != (2,):
+                raise ValueError(f"HeliostatMount: {name} needs one value per axis, got shape {x.shape}")
+            return x
+
+        self.increment = pair(increment, "increment")
+        self.initial_stroke = pair(initial_stroke, "initial_stroke")
+        self.offset = pair(offset, "offset")
+        self.pivot_radius = pair(pivot_radius, "pivot_radius")
+        self.initial_angle = pair(initial_angle, "initial_angle")
+        self.sign = jnp.where(pair(clockwise, "clockwise") != 0, 1.0, -1.0)
+
+    @classmethod
+    def from_paint(cls, heliostat) -> "HeliostatMount":
+        """The nominal mount of a PAINT heliostat (:func:`pointax.io.read_heliostat`)."""
+        acts = heliostat.actuators
+
+        def field(name):
+            return [getattr(a, name) for a in acts]
+
+        return cls(
+            increment=field("increment"),
+            initial_stroke=field("initial_stroke_length"),
+            offset=field("offset"),
+            pivot_radius=field("pivot_radius"),
+            initial_angle=field("initial_angle"),
+            clockwise=[float(a.clockwise) for a in acts],
+        )
+
+    @property
+    def boresight(self) -> Float[Array, "3"]:
+        return jnp.array([0.0, -1.0, 0.0])
+
+    @property
+    def convention(self) -> str:
+        return "heliostat"
+
+    def _phi(self, stroke):
+        a, r = self.offset, self.pivot_radius
+        return jnp.arccos(jnp.clip((a**2 + r**2 - stroke**2) / (2 * a * r), -1.0, 1.0))
+
+    def axis_angles(self, reading):
+        stroke = reading / self.increment + self.initial_stroke
+        return self.initial_angle + self.sign * (self._phi(self.initial_stroke) - self._phi(stroke))
+
+    def readings_of(self, angles):
+        a, r = self.offset, self.pivot_radius
+        phi = self._phi(self.initial_stroke) - self.sign * (angles - self.initial_angle)
+        stroke = jnp.sqrt(a**2 + r**2 - 2 * a * r * jnp.cos(phi))
+        return (stroke - self.initial_stroke) * self.increment
+
+    def axis1(self, angle):
+        return rot_x(angle - jnp.pi / 2)
+
+    def axis2(self, angle):
+        return rot_z(angle)
+
+    def direction(self, angles):
+        t1, t2 = angles[0], angles[1]
+        return jnp.stack([jnp.sin(t2), -jnp.cos(t2) * jnp.sin(t1), jnp.cos(t2) * jnp.cos(t1)])
+
+    def angles_of(self, direction, near):
+        e, n, u = direction[0], direction[1], direction[2]
+        theta1 = jnp.arctan2(-n, jnp.where(_on_axis(direction, 0), 1.0, u))
+        theta2 = jnp.arctan2(e, jnp.hypot(n, u))
+        return nearest_solution(theta1, theta2, near, _on_axis(direction, 0))

@@ -17,7 +17,7 @@ ARCSEC = math.pi / (180.0 * 3600.0)
 DEG = math.pi / 180.0
 """One degree in radians."""
 
-UNITS = {"arcsec": ARCSEC, "deg": DEG, "rad": 1.0, "1": 1.0}
+UNITS = {"arcsec": ARCSEC, "deg": DEG, "mrad": 1e-3, "rad": 1.0, "1": 1.0}
 """Radians per unit for each unit name a parameter may be reported in."""
 
 

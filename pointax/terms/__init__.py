@@ -2,16 +2,19 @@
 
 * :mod:`pointax.terms.tpoint`: TPOINT's alt-az terms in TPOINT's linear form.
 * :mod:`pointax.terms.rigorous`: the same terms as exact rotations.
+* :mod:`pointax.terms.sun_vector`: the sun-vector turntable model's five parameters.
+* :mod:`pointax.terms.heliostat`: axis tilts and joint zeros of a tilt-tilt heliostat.
 * :class:`Term`, :func:`param`: the base class and field helper for new terms.
 
-``tpoint("IA IE NPAE CA AN AW TF TX")`` builds the terms by name.
+``tpoint("IA IE NPAE CA AN AW TF TX")`` and ``turntable("full")`` build terms by name.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-from . import rigorous
+from . import heliostat as heliostat_terms, rigorous, sun_vector
+from .heliostat import heliostat
 from .base import Term, param, param_fields, param_unit
 from .tpoint import (
     ACEC,
@@ -58,6 +61,10 @@ __all__ = [
     "PAA1",
     "PEE1",
     "LINEAR_TERMS",
+    "turntable",
+    "sun_vector",
+    "heliostat",
+    "heliostat_terms",
 ]
 
 FORMS = {"linear": LINEAR_TERMS, "rigorous": rigorous.RIGOROUS_TERMS}
@@ -98,3 +105,32 @@ def tpoint(spec: str | Iterable[str] = BASIC_ALTAZ, form: str = "linear", values
     if values:
         raise ValueError(f"values given for terms not in the list: {sorted(values)}")
     return tuple(out)
+
+
+def turntable(spec: str | Iterable[str] = "full", values: dict | None = None) -> tuple[Term, ...]:
+    """Terms of the sun-vector turntable model (:mod:`pointax.terms.sun_vector`).
+
+    Args:
+        spec: 'full' (the paper's five parameters mu0 nu0 omega0 alpha0 beta0),
+            'simple' (its two-parameter model, alpha0 beta0), or parameter names
+            separated by spaces or commas.
+        values: optional starting values in radians, by parameter name.
+    """
+    library = sun_vector.TURNTABLE_TERMS
+    if isinstance(spec, str) and spec in sun_vector.TURNTABLE_MODELS:
+        chosen = sun_vector.TURNTABLE_MODELS[spec]
+    else:
+        chosen = spec.replace(",", " ").split() if isinstance(spec, str) else list(spec)
+    values = dict(values or {})
+    out = []
+    for name in chosen:
+        if name not in library:
+            raise ValueError(
+                f"unknown turntable parameter {name!r}; expected 'full', 'simple' or names from {' '.join(library)}"
+            )
+        out.append(library[name](values.pop(name, 0.0)))
+    if values:
+        raise ValueError(f"values given for parameters not in the list: {sorted(values)}")
+    # Keep the paper's order of the chain whatever order the names came in.
+    order = list(library)
+    return tuple(sorted(out, key=lambda t: order.index(t.name)))

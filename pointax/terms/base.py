@@ -8,13 +8,16 @@ it over observations, and JAX differentiates it: no derivative is ever written b
 
 The pointing of a two-axis mount is computed as (see :mod:`pointax.mounts`)::
 
-    angles = encoder + sum(term.encoder_offset(encoder))           # 1. encoder corrections
+    nominal = mount.axis_angles(reading)                               # 0. raw reading -> angles
+    angles = nominal + sum(term.encoder_offset(nominal))              # 1. encoder corrections
     d = R_base . R1(angles[0]) . R_axes . R2(angles[1]) . R_bore . b0  # 2. rotations in the chain
     sky angles s solve  s = angles_of(d) + sum(term.sky_offset(s))  # 3. pointing offsets
 
 where ``R_base`` is the product of every term's :meth:`Term.base_rotation`, and so on.
 All angles are in the mount's own angle convention (for an alt-az mount: the encoder's
-azimuth and elevation, radians).
+azimuth and elevation, radians). For mounts whose encoders read angles the nominal
+angles are the raw readings; a heliostat's actuator increments become joint angles
+first.
 """
 
 from __future__ import annotations
@@ -71,7 +74,8 @@ class Term(eqx.Module):
         return type(self).__name__
 
     def encoder_offset(self, encoder: Float[Array, "2"]) -> Float[Array, "2"] | None:
-        """Correction (radians) added to the raw encoder angles; sees the raw angles."""
+        """Correction (radians) added to the nominal axis angles; sees the uncorrected
+        angles (the raw encoder angles for angle-encoder mounts)."""
         return None
 
     def base_rotation(self, angles: Float[Array, "2"]) -> Float[Array, "3 3"] | None:
