@@ -10,12 +10,14 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     print(px.fit(model, run).report())
 """
 
-from . import io, rotations, terms, units
+from . import io, rotations, sky, terms, units
 from .fit import FitResult, fit, residuals
+from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .model import AltAz, Model, ParameterInfo, Turntable
-from .mounts import AZIMUTH_CONVENTIONS, AltAzMount, Mount, TurntableMount
+from .mounts import AZIMUTH_CONVENTIONS, AltAzMount, HeliostatMount, Mount, TurntableMount
 from .observations import Observations
 from .simulate import simulate
+from .validate import LeaveOneOut, leave_one_out
 from .terms import Term, param
 from .units import arcsec, deg, rad
 
@@ -26,6 +28,9 @@ __all__ = [
     "AltAzMount",
     "AZIMUTH_CONVENTIONS",
     "FitResult",
+    "HeliostatCalibration",
+    "HeliostatMount",
+    "LeaveOneOut",
     "Model",
     "Mount",
     "Observations",
@@ -33,13 +38,17 @@ __all__ = [
     "Term",
     "arcsec",
     "deg",
+    "calibrate_heliostat",
     "fit",
+    "heliostat_model",
+    "leave_one_out",
     "io",
     "param",
     "rad",
     "residuals",
     "rotations",
     "simulate",
+    "sky",
     "terms",
     "Turntable",
     "TurntableMount",

@@ -70,6 +70,8 @@ _SAFE = np.array([0.0, np.sqrt(0.5), np.sqrt(0.5)])
 # the converged reading.
 _START_SHIFTS = np.array(list(itertools.product(range(-2, 3), range(-1, 2))), float)
 _FINAL_SHIFTS = np.array(list(itertools.product(range(-1, 2), range(-1, 2))), float)
+# Smallest padded batch (see command).
+_MIN_BATCH = 8
 # Fixed-point iterations undoing encoder corrections for the Newton start.
 _ENCODER_ITERATIONS = 3
 
@@ -161,26 +163,27 @@ def _readings_for(model: Model, angles: Array) -> Array:
     return mount.readings_of(nominal)
 
 
-def _centre(limits, near, base):
+def _centre(limits, near, has_near, base):
     """Reading around which branch candidates are generated, per axis."""
     lo, hi = limits[:, 0], limits[:, 1]
     flo, fhi = jnp.isfinite(lo), jnp.isfinite(hi)
-    free = base.at[0].set(0.0) if near is None else near
+    free = jnp.where(has_near, near, base.at[0].set(0.0))
     mid = jnp.where(flo & fhi, 0.5 * (jnp.where(flo, lo, 0.0) + jnp.where(fhi, hi, 0.0)), free)
     mid = jnp.where(flo & ~fhi, jnp.where(flo, lo, 0.0) + np.pi, mid)
     return jnp.where(~flo & fhi, jnp.where(fhi, hi, 0.0) - np.pi, mid)
 
 
-def _pick(cands, limits, near, pref):
+def _pick(cands, limits, near, has_near, pref):
     """Index of the candidate reading (rows of ``cands``) chosen by the branch rule:
     inside the limits, then nearest ``near`` if given, else lowest (where the lower
     limit is finite) or nearest ``pref``. With none inside, the least out of limits."""
     lo, hi = limits[:, 0], limits[:, 1]
     valid = jnp.all((cands >= lo) & (cands <= hi), axis=-1)
-    if near is not None:
-        score = jnp.abs(cands - near)
-    else:
-        score = jnp.where(jnp.isfinite(lo), cands - jnp.where(jnp.isfinite(lo), lo, 0.0), jnp.abs(cands - pref))
+    score = jnp.where(
+        has_near,
+        jnp.abs(cands - near),
+        jnp.where(jnp.isfinite(lo), cands - jnp.where(jnp.isfinite(lo), lo, 0.0), jnp.abs(cands - pref)),
+    )
     score = jnp.sum(score, axis=-1)
     violation = jnp.sum(jnp.maximum(lo - cands, 0.0) + jnp.maximum(cands - hi, 0.0), axis=-1)
     best = jnp.argmin(jnp.where(valid, score, jnp.inf))
@@ -188,7 +191,7 @@ def _pick(cands, limits, near, pref):
     return jnp.where(jnp.any(valid), best, least_bad)
 
 
-def _starts(model: Model, d, near, limits):
+def _starts(model: Model, d, near, has_near, limits):
     """Newton starts ``(2, 2)`` (normal, flipped) and the base readings used as the
     branch preference where there are no limits and no ``near``."""
     mount = model.mount
@@ -200,10 +203,10 @@ def _starts(model: Model, d, near, limits):
     starts, prefs = [], []
     for c in (normal, flipped):
         base = _readings_for(model, c)
-        k0 = jnp.round((_centre(limits, near, base) - base) / _TWO_PI)
+        k0 = jnp.round((_centre(limits, near, has_near, base) - base) / _TWO_PI)
         cands = jax.vmap(lambda k: _readings_for(model, c + _TWO_PI * k))(k0 + _START_SHIFTS)
         pref = base.at[0].set(0.0)
-        starts.append(cands[_pick(cands, limits, near, pref)])
+        starts.append(cands[_pick(cands, limits, near, has_near, pref)])
         prefs.append(pref)
     return jnp.stack(starts), jnp.stack(prefs)
 
@@ -214,10 +217,10 @@ def _newton(model: Model, start, target, tol: float, max_steps: int):
     return sol.value, sol.stats["num_steps"]
 
 
-def _settle(model: Model, reading, target, near, limits, pref, tol: float):
+def _settle(model: Model, reading, target, near, has_near, limits, pref, tol: float):
     """Apply the branch rule to a converged reading; status bits and residual."""
     cands = reading + _TWO_PI * _FINAL_SHIFTS
-    shifted = cands[_pick(cands, limits, near, pref)]
+    shifted = cands[_pick(cands, limits, near, has_near, pref)]
     sg = jax.lax.stop_gradient
     res = angle_between(model.direction(sg(reading)), sg(target))
     res_shifted = angle_between(model.direction(sg(shifted)), sg(target))
@@ -236,8 +239,10 @@ def _settle(model: Model, reading, target, near, limits, pref, tol: float):
 
 
 @eqx.filter_jit
-def _command_flat(model: Model, d, near, limits, tol: float, max_steps: int, solution: Array):
-    """The solve for ``(n, 3)`` directions; see :func:`command`."""
+def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps: int, solution: Array):
+    """The solve for ``(n, 3)`` directions; see :func:`command`. ``near`` is ``(n, 2)``
+    and used only where the scalar ``has_near`` is True, ``solution`` is the index
+    into :data:`SOLUTIONS`: both are traced, so they do not cause recompiling."""
     n = d.shape[0]
     finite = jnp.all(jnp.isfinite(d), axis=-1)
     norm = jnp.linalg.norm(jnp.where(finite[:, None], d, 0.0), axis=-1)
@@ -245,24 +250,16 @@ def _command_flat(model: Model, d, near, limits, tol: float, max_steps: int, sol
     safe_norm = jnp.where(good, norm, 1.0)[:, None]
     target = jnp.where(good[:, None], d / safe_norm, jnp.asarray(_SAFE, d.dtype))
 
-    if near is None:
-        starts, prefs = jax.vmap(lambda t: _starts(model, t, None, limits))(target)
-    else:
-        starts, prefs = jax.vmap(lambda t, m: _starts(model, t, m, limits))(target, near)
+    starts, prefs = jax.vmap(lambda t, m: _starts(model, t, m, has_near, limits))(target, near)
     # One batched Newton solve over both mechanical solutions of every direction.
     targets2 = jnp.repeat(target, 2, axis=0)
+    near2 = jnp.repeat(near, 2, axis=0)
     readings, steps = jax.vmap(lambda s, t: _newton(model, s, t, tol, max_steps))(
         starts.reshape(2 * n, 2), targets2
     )
-    near2 = None if near is None else jnp.repeat(near, 2, axis=0)
-    if near2 is None:
-        readings, residuals, status = jax.vmap(lambda r, t, p: _settle(model, r, t, None, limits, p, tol))(
-            readings, targets2, prefs.reshape(2 * n, 2)
-        )
-    else:
-        readings, residuals, status = jax.vmap(lambda r, t, m, p: _settle(model, r, t, m, limits, p, tol))(
-            readings, targets2, near2, prefs.reshape(2 * n, 2)
-        )
+    readings, residuals, status = jax.vmap(lambda r, t, m, p: _settle(model, r, t, m, has_near, limits, p, tol))(
+        readings, targets2, near2, prefs.reshape(2 * n, 2)
+    )
     readings = readings.reshape(n, 2, 2)
     residuals = residuals.reshape(n, 2)
     status = status.reshape(n, 2)
@@ -270,11 +267,8 @@ def _command_flat(model: Model, d, near, limits, tol: float, max_steps: int, sol
     ok2 = status == _OK
 
     # solution: 0 "nearest", 1 "normal", 2 "flipped" (a traced code: no recompiling).
-    if near is None:
-        prefer = jnp.zeros(n, int)
-    else:
-        dist = jnp.sum(jnp.abs(readings - near[:, None, :]), axis=-1)
-        prefer = jnp.where(dist[:, 1] < dist[:, 0], 1, 0)
+    dist = jnp.sum(jnp.abs(readings - near[:, None, :]), axis=-1)
+    prefer = jnp.where(has_near & (dist[:, 1] < dist[:, 0]), 1, 0)
     other = 1 - prefer
     ok_prefer = jnp.take_along_axis(ok2, prefer[:, None], axis=1)[:, 0]
     ok_other = jnp.take_along_axis(ok2, other[:, None], axis=1)[:, 0]
@@ -364,16 +358,31 @@ def command(
         raise ValueError(f"direction must have shape (..., 3), got {direction.shape}")
     batch = direction.shape[:-1]
     flat = direction.reshape(-1, 3)
-    near_flat = None
-    if near is not None:
+    n = flat.shape[0]
+    if near is None:
+        near_flat = jnp.zeros((n, 2))
+    else:
         near = jnp.asarray(near, float)
         if near.shape[-1:] != (2,):
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
         near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
     lim = _limits_array(limits)
-    reading, ok, residual, iterations, pick, status = _command_flat(
-        model, flat, near_flat, lim, float(tol), int(max_steps), jnp.asarray(SOLUTIONS.index(solution))
+    # Pad the batch to a power of two: one compilation serves many batch sizes.
+    size = max(_MIN_BATCH, 1 << max(n - 1, 0).bit_length())
+    pad = size - n
+    flat = jnp.concatenate([flat, jnp.broadcast_to(jnp.asarray(_SAFE), (pad, 3))])
+    near_flat = jnp.concatenate([near_flat, jnp.zeros((pad, 2))])
+    outputs = _command_flat(
+        model,
+        flat,
+        near_flat,
+        jnp.asarray(near is not None),
+        lim,
+        float(tol),
+        int(max_steps),
+        jnp.asarray(SOLUTIONS.index(solution)),
     )
+    reading, ok, residual, iterations, pick, status = (x[:n] for x in outputs)
     return Command(
         reading=reading.reshape(batch + (2,)),
         ok=ok.reshape(batch),

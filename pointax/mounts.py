@@ -260,8 +260,8 @@ class HeliostatMount(Mount):
         return cls(
             increment=field("increment"),
             initial_stroke=field("initial_stroke_length"),
-            offset=field("offset"),
-            pivot_radius=field("pivot_radius"),
+            offset=[a.offset + a.offset_shift for a in acts],
+            pivot_radius=[a.pivot_radius + a.radius_shift for a in acts],
             initial_angle=field("initial_angle"),
             clockwise=[float(a.clockwise) for a in acts],
         )

@@ -13,8 +13,9 @@ Position. :func:`sun_altaz` is astropy's topocentric apparent place of the sun:
 ephemeris, light time, annual and diurnal aberration, precession-nutation, UT1 and polar
 motion from the IERS tables, parallax of the site) transformed to ``AltAz(obstime=t,
 location=site)``. Against NREL's SPA (Reda & Andreas 2004, through pvlib) it agrees to
-0.6 arcsec (see ``tests/test_sky.py``); SPA's own stated uncertainty is 0.0003 deg = 1.1
-arcsec.
+0.8 arcsec over a year at three sites (``tests/test_sky.py``); SPA's own stated
+uncertainty is 0.0003 deg = 1.1 arcsec. Cost: about 0.2-0.4 ms of CPU per time (mostly
+ERFA's Earth ephemeris), plus ~20 ms per call.
 
 Refraction. Only when ``pressure_hpa`` is given, with ERFA's model, exactly as astropy's
 ``AltAz`` frame applies it (see :func:`refraction`).
@@ -29,11 +30,17 @@ last value and polar motion at astropy's 50-year mean. The effect: an error of `
 seconds in UT1-UTC turns the sky about the Earth's axis by ``15.04 arcsec/s * dUT1``, which
 moves the sun by ``15.04 arcsec/s * dUT1 * cos(declination)`` (at most 15 arcsec per
 second of UT1 error; in azimuth alone divide by ``cos(elevation)``). IERS predictions are
-good to about ``0.00025 s * days**0.75`` (0.02 s, i.e. 0.3 arcsec, a year ahead); beyond
-the table UT1-UTC drifts by tens of milliseconds per year, unless a leap second (none is
-announced as of 2026) is inserted that the installed tables do not know, which shifts
-UTC itself by 1 s (15 arcsec). Polar motion (< 0.6 arcsec) moves the direction by less
-than 0.6 arcsec. Update ``astropy-iers-data`` to remove both.
+good to about ``0.00025 s * days**0.75`` (0.02 s, i.e. 0.3 arcsec, a year ahead); in
+the bundled table UT1-UTC changes by 0.03-0.3 s per year, so a frozen value costs about
+0.5-4.5 arcsec per year beyond the table's end (2027-10-29 for astropy-iers-data
+2026.11). A leap second that the installed tables do not know (none is announced as of
+2026) shifts UTC itself by 1 s (15 arcsec). Falling back to mean polar motion moves the
+direction by less than 0.6 arcsec. Update ``astropy-iers-data`` to remove both.
+
+Note that with downloads off, plain astropy refuses (``ValueError``) any time past the
+table's first predicted day once that day is more than 30 days old (``auto_max_age``);
+for the bundled 2026.11 table that is already so in late November 2026. Setting
+``auto_max_age = None`` here is what lets IERS-A predictions be used offline.
 """
 
 from __future__ import annotations
@@ -51,12 +58,12 @@ from astropy.utils import iers
 from astropy.utils.exceptions import AstropyWarning
 
 __all__ = [
+    "DEFAULT_TEMPERATURE_C",
+    "DEFAULT_WAVELENGTH_UM",
+    "refraction",
     "site",
     "sun_altaz",
     "sun_direction",
-    "refraction",
-    "DEFAULT_TEMPERATURE_C",
-    "DEFAULT_WAVELENGTH_UM",
 ]
 
 DEFAULT_TEMPERATURE_C = 10.0
@@ -77,7 +84,9 @@ _SELMIN = 0.05
 # --------------------------------------------------------------------------- site
 
 
-def site(latitude_deg: float, longitude_deg: float, height_m: float = 0.0) -> EarthLocation:
+def site(
+    latitude_deg: float, longitude_deg: float, height_m: float = 0.0
+) -> EarthLocation:
     """An observing site from WGS84 geodetic coordinates.
 
     Args:
@@ -97,7 +106,9 @@ def site(latitude_deg: float, longitude_deg: float, height_m: float = 0.0) -> Ea
     lat = _scalar("latitude_deg", latitude_deg, -90.0, 90.0)
     lon = _scalar("longitude_deg", longitude_deg, -180.0, 360.0)
     height = _scalar("height_m", height_m, -1e5, 1e5)
-    return EarthLocation.from_geodetic(lon * u.deg, lat * u.deg, height * u.m, ellipsoid="WGS84")
+    return EarthLocation.from_geodetic(
+        lon * u.deg, lat * u.deg, height * u.m, ellipsoid="WGS84"
+    )
 
 
 # --------------------------------------------------------------------------- sun
@@ -138,9 +149,10 @@ def sun_altaz(
         too (with refraction frozen below 2.9 deg, see :func:`refraction`).
 
     Raises:
-        ValueError: times that cannot be read, a location that is not a scalar
-            ``EarthLocation``, a temperature without a pressure, weather values out of
-            range or not broadcastable to the times.
+        ValueError: times that cannot be read, an ``EarthLocation`` of several sites,
+            a temperature without a pressure, weather values out of range or not
+            broadcastable to the times.
+        TypeError: a location that is not an ``EarthLocation``.
 
     Warns:
         astropy.utils.iers.IERSDegradedAccuracyWarning: some times are outside the
@@ -201,20 +213,35 @@ def refraction(
     second-order ``cos d``). Returned is the resulting observed minus true elevation.
 
     Accuracy. ERFA states that ``refco`` matches ray tracing to 62 mas worst / 8 mas rms
-    (optical) for zenith distances 15-75 deg, and that the ``A tan z + B tan^3 z``
-    result is good to 0.05 arcsec for zenith distances below 70 deg, better than 30
-    arcsec at 85 deg, and only to about 20 arcmin at the horizon. Measured against
-    Saemundsson's formula scaled by ``(P / 1010)(283 / (273 + T))`` at 1010 hPa, 10 C
-    (``tests/test_sky.py``): within 0.7 arcsec above 15 deg elevation (refraction 3.6
-    arcmin at 15 deg), 6 arcsec at 10-15 deg, 70 arcsec at 5-10 deg; below 5 deg the two
-    part (ERFA gives 14 arcmin at 2.9 deg and below, where Saemundsson gives 15-29 arcmin):
-    this model is not for the sun near the horizon. The real atmosphere (lapse rate,
-    inversions) differs from any model by more than this near the horizon anyway.
+    (optical) at zenith distances 15, 45 and 75 deg over its test conditions, and that
+    with this ``A tan z + B tan^3 z`` model observed places are good to 0.05 arcsec
+    (optical) for zenith distances below 70 deg, better than 30 arcsec at 85 deg, and
+    only to about 20 arcmin at the horizon. Measured against the classical formulas
+    scaled by ``(P / 1010)(283 / (273 + T))`` (dry air, 0.55 um; 600-1050 hPa, -10 to
+    30 C; ``tests/test_sky.py``), the largest differences are, by elevation band:
+
+    ============  ===========  =======  =====================
+    elevation     Saemundsson  Bennett  refraction there
+    ============  ===========  =======  =====================
+    60-90 deg     1.6"         1.0"     0-34"
+    30-60 deg     4.6"         2.8"     32-100"
+    15-30 deg     8.0"         5.0"     64-212"
+    10-15 deg     10"          7"       136-315"
+    5-10 deg      31"          30"      200-555"
+    2.9-5 deg     205"         217"     model breaks down
+    0-2.9 deg     1080"        1280"    frozen near 11'
+    ============  ===========  =======  =====================
+
+    Above 15 deg the difference is mostly a 3-5 % scale (at 45 deg, 1010 hPa, 10 C:
+    ERFA 58.0", Saemundsson 60.8", Bennett 59.7"; the two formulas claim only ~4"
+    themselves). At the horizon ERFA gives about 11' where the real refraction is ~29-35':
+    this model is not for the sun below ~5 deg (nor is any model without a measured
+    temperature profile).
 
     Args:
         elevation_rad: true elevation, radians, any shape. Below 2.87 deg
             (``sin E < 0.05``) ERFA freezes ``z``, so the refraction stays near its
-            2.87 deg value (14 arcmin at standard conditions) down to and below the
+            2.87 deg value (11.2 arcmin at 1010 hPa, 10 C) down to and below the
             horizon.
         pressure_hpa: station air pressure, hPa, ``0..10000`` (0 gives zero refraction).
         temperature_c: air temperature, deg C, ``-150..200``.
@@ -232,7 +259,9 @@ def refraction(
             clamp it silently).
     """
     el = np.asarray(elevation_rad, dtype=np.float64)
-    p, t, rh, wl = _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um)
+    p, t, rh, wl = _check_weather(
+        pressure_hpa, temperature_c, relative_humidity, wavelength_um
+    )
     refa, refb = erfa.refco(p, t, rh, wl)
     # The unit vector of the true direction, split into horizontal (r) and vertical (z)
     # parts, then eraAtioq's refraction step verbatim.
@@ -270,7 +299,9 @@ def _array_in(name: str, value, lo: float, hi: float, unit: str) -> np.ndarray:
     try:
         x = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or an array of numbers, got {value!r}") from None
+        raise ValueError(
+            f"{name} must be a number or an array of numbers, got {value!r}"
+        ) from None
     bad = ~((x >= lo) & (x <= hi))
     if np.any(bad):
         first = x[bad].flat[0]
@@ -283,7 +314,9 @@ def _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um
     return (
         _array_in("pressure_hpa", pressure_hpa, 0.0, 10000.0, "hPa"),
         _array_in("temperature_c", temperature_c, -150.0, 200.0, "deg C"),
-        _array_in("relative_humidity", relative_humidity, 0.0, 1.0, "(a fraction, not %)"),
+        _array_in(
+            "relative_humidity", relative_humidity, 0.0, 1.0, "(a fraction, not %)"
+        ),
         _array_in("wavelength_um", wavelength_um, 0.1, 1e6, "micrometres"),
     )
 
@@ -300,11 +333,13 @@ def _as_time(times) -> Time:
 
 def _check_location(location) -> EarthLocation:
     if not isinstance(location, EarthLocation):
-        raise ValueError(
+        raise TypeError(
             f"location must be an astropy EarthLocation (see pointax.sky.site), got {type(location).__name__}"
         )
     if location.shape != ():
-        raise ValueError(f"location must be a single site, got an EarthLocation of shape {location.shape}")
+        raise ValueError(
+            f"location must be a single site, got an EarthLocation of shape {location.shape}"
+        )
     return location
 
 
@@ -320,7 +355,9 @@ def _offline_iers():
         iers.conf.set_temp("iers_degraded_accuracy", "warn"),
         warnings.catch_warnings(),
     ):
-        warnings.filterwarnings("ignore", message="Tried to get polar motions", category=AstropyWarning)
+        warnings.filterwarnings(
+            "ignore", message="Tried to get polar motions", category=AstropyWarning
+        )
         warnings.filterwarnings("ignore", category=iers.IERSDegradedAccuracyWarning)
         yield
 
@@ -335,7 +372,9 @@ def _iers_out_of_range(t: Time) -> tuple[int, str]:
     return int(outside), span
 
 
-def _sun_altaz(times, location, pressure_hpa, temperature_c, relative_humidity, wavelength_um):
+def _sun_altaz(
+    times, location, pressure_hpa, temperature_c, relative_humidity, wavelength_um
+):
     """Body of :func:`sun_altaz` (called directly by both public functions)."""
     t = _as_time(times)
     location = _check_location(location)
@@ -349,9 +388,13 @@ def _sun_altaz(times, location, pressure_hpa, temperature_c, relative_humidity, 
     else:
         if temperature_c is None:
             temperature_c = DEFAULT_TEMPERATURE_C
-        weather = _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um)
+        weather = _check_weather(
+            pressure_hpa, temperature_c, relative_humidity, wavelength_um
+        )
         for name, value in zip(
-            ("pressure_hpa", "temperature_c", "relative_humidity", "wavelength_um"), weather, strict=True
+            ("pressure_hpa", "temperature_c", "relative_humidity", "wavelength_um"),
+            weather,
+            strict=True,
         ):
             try:
                 np.broadcast_to(value, t.shape)

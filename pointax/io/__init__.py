@@ -1,5 +1,22 @@
-"""File formats: TPOINT input and model files (more formats to come)."""
+"""File formats: TPOINT input and model files; PAINT heliostat calibration data."""
 
+from .paint import (
+    FOCAL_SPOT_METHODS,
+    CalibrationSample,
+    HeliostatProperties,
+    LinearActuator,
+    PaintFormatError,
+    PaintRun,
+    TargetPlane,
+    Tower,
+    paint_azimuth_to_north_east,
+    read_calibration,
+    read_heliostat,
+    read_paint,
+    read_tower,
+    sun_enu_from_paint,
+    wgs84_to_enu,
+)
 from .tpoint import (
     ModelTerm,
     RunParameters,
@@ -15,6 +32,21 @@ from .tpoint import (
 )
 
 __all__ = [
+    "FOCAL_SPOT_METHODS",
+    "CalibrationSample",
+    "HeliostatProperties",
+    "LinearActuator",
+    "PaintFormatError",
+    "PaintRun",
+    "TargetPlane",
+    "Tower",
+    "paint_azimuth_to_north_east",
+    "read_calibration",
+    "read_heliostat",
+    "read_paint",
+    "read_tower",
+    "sun_enu_from_paint",
+    "wgs84_to_enu",
     "ModelTerm",
     "RunParameters",
     "TpointFormatError",

@@ -45,6 +45,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from ..observations import Observations
+
 __all__ = [
     "FOCAL_SPOT_METHODS",
     "CalibrationSample",
@@ -676,6 +678,12 @@ class PaintRun:
     def reflected(self) -> np.ndarray:
         """``(n, 3)`` unit directions from the mirror to the focal spot, ENU."""
         return 2.0 * np.sum(self.sun * self.measured_normal, axis=-1, keepdims=True) * self.measured_normal - self.sun
+
+    @property
+    def observations(self) -> Observations:
+        """The samples as :class:`pointax.Observations` of a
+        :class:`pointax.HeliostatMount`: motor increments and measured normals."""
+        return Observations(self.motor, self.measured_normal, convention="heliostat")
 
     def __len__(self) -> int:
         return len(self.samples)
