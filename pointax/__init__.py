@@ -11,6 +11,7 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
 """
 
 from . import io, rotations, sky, terms, units
+from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .model import AltAz, Model, ParameterInfo, Turntable
@@ -27,6 +28,7 @@ __all__ = [
     "AltAz",
     "AltAzMount",
     "AZIMUTH_CONVENTIONS",
+    "Command",
     "FitResult",
     "HeliostatCalibration",
     "HeliostatMount",
@@ -39,12 +41,15 @@ __all__ = [
     "arcsec",
     "deg",
     "calibrate_heliostat",
+    "command",
+    "command_reflector",
     "fit",
     "heliostat_model",
     "leave_one_out",
     "io",
     "param",
     "rad",
+    "reflect_normal",
     "residuals",
     "rotations",
     "simulate",

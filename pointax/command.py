@@ -45,7 +45,7 @@ from ._x64 import float64
 from .model import Model
 from .rotations import angle_between, tangent_offset
 
-__all__ = ["Command", "command", "command_reflector", "reflect_normal", "SOLUTIONS", "OPPOSITE_TOL"]
+__all__ = ["OPPOSITE_TOL", "SOLUTIONS", "Command", "command", "command_reflector", "reflect_normal"]
 
 SOLUTIONS = ("nearest", "normal", "flipped")
 """Values of ``command(..., solution=...)``."""
@@ -204,7 +204,7 @@ def _starts(model: Model, d, near, has_near, limits):
     for c in (normal, flipped):
         base = _readings_for(model, c)
         k0 = jnp.round((_centre(limits, near, has_near, base) - base) / _TWO_PI)
-        cands = jax.vmap(lambda k: _readings_for(model, c + _TWO_PI * k))(k0 + _START_SHIFTS)
+        cands = jax.vmap(lambda k, c=c: _readings_for(model, c + _TWO_PI * k))(k0 + _START_SHIFTS)
         pref = base.at[0].set(0.0)
         starts.append(cands[_pick(cands, limits, near, has_near, pref)])
         prefs.append(pref)

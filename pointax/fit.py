@@ -178,8 +178,11 @@ class FitResult(eqx.Module):
 
     @property
     def _residual_unit(self) -> str:
-        # Heliostat engineers think in mrad, telescope people in arcsec.
-        return "mrad" if "mrad" in self.units else "arcsec"
+        # Heliostat engineers think in mrad, sun-tracker people in degrees (when every
+        # parameter is in degrees), telescope people in arcsec.
+        if "mrad" in self.units:
+            return "mrad"
+        return "deg" if self.units and all(u == "deg" for u in self.units) else "arcsec"
 
     def correlated_pairs(self, threshold: float = CORRELATION_WARNING) -> list[tuple[str, str, float]]:
         """Parameter pairs with |correlation| above ``threshold``."""

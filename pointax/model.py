@@ -260,7 +260,7 @@ def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fix
 
 
 def Turntable(
-    terms: str | Sequence[Term] = "full",
+    terms: str | Sequence[str] | Sequence[Term] = "full",
     fixed: Iterable[str] = (),
     start: Observations | None = None,
 ) -> Model:
@@ -274,7 +274,8 @@ def Turntable(
             (:func:`pointax.terms.sun_vector.estimate_zeros`); the zeros may be far from
             0 and a least-squares fit needs a start within a few degrees.
     """
-    if isinstance(terms, str):
+    terms = terms if isinstance(terms, str) else tuple(terms)
+    if isinstance(terms, str) or all(isinstance(t, str) for t in terms):
         terms = turntable_terms(terms)
     model = Model(TurntableMount(), terms, fixed)
     if start is not None:
