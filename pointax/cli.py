@@ -2,6 +2,7 @@
 
     pointax fit DATA [--terms IA,IE,...] [--form linear|rigorous] [--json]
     pointax fit DIR --format paint [--terms t1n,t1u,t2e,t2n] [--loss cauchy] [--json]
+    pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
@@ -18,6 +19,16 @@ and a per-sample table, or with ``--json`` the keys ``n_obs``, ``params`` (``nam
 value per sample in file order; ``rms`` over the unflagged samples and ``rms_all``),
 ``samples``, ``outliers`` and more (see :meth:`pointax.HeliostatCalibration.to_dict`).
 
+``pointax command`` is the inverse: encoder commands for wanted directions
+(:func:`pointax.command`). DIRECTIONS is a text file ('-' for standard input) with one
+direction per line, azimuth (North through East) and elevation in degrees, or with
+``--reflect`` four columns: sun azimuth and elevation, target azimuth and elevation (the
+mirror normal is their bisector). ``#`` starts a comment. The model is a turntable
+(``--mount turntable``; ``--params`` in degrees, e.g. from a fit) or an alt-az telescope
+(``--mount altaz --model FILE.mod``, a TPOINT model file, or ``--params`` in arcsec with
+``--terms``). It prints one line per direction (readings in degrees, ok, reason) or a
+JSON list. Exit status 0 when every direction was commanded, 1 when some were not.
+
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
 of the same model then starts in about 2 s instead of 8 s. ``POINTAX_JAX_CACHE=""``
@@ -33,14 +44,17 @@ import sys
 from pathlib import Path
 
 import jax
+import numpy as np
 
 from . import terms as term_library
+from .command import SOLUTIONS, command, command_reflector
 from .fit import LOSSES, SOLVERS, fit
 from .heliostat import calibrate_heliostat
-from .io import FOCAL_SPOT_METHODS, PaintFormatError, TpointFormatError, read_paint, read_tpoint, write_model
-from .model import AltAz
+from .io import FOCAL_SPOT_METHODS, PaintFormatError, TpointFormatError, read_model, read_paint, read_tpoint, write_model
+from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .terms.heliostat import HELIOSTAT_DEFAULT
+from .units import UNITS
 
 __all__ = ["main", "build_parser"]
 
@@ -80,7 +94,131 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
     p.add_argument("--write-model", metavar="FILE", help="also write the fitted model as a TPOINT .mod file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    c = sub.add_parser("command", help="encoder commands for wanted directions (the model's inverse)")
+    c.add_argument("directions", help="text file of 'az el' (deg) per line, or '-' for standard input")
+    c.add_argument("--mount", choices=["turntable", "altaz"], default="turntable", help="mount kind (default: turntable)")
+    c.add_argument(
+        "--params",
+        default="",
+        help="parameter values name=value, comma separated, in the parameters' display units "
+        "(turntable: degrees, e.g. mu0=0.0751,nu0=0.0145,omega0=-0.0947,alpha0=60.5425,beta0=165.8931)",
+    )
+    c.add_argument("--terms", default=None, help="terms of the model (default: turntable 'full'; altaz: the --model file's)")
+    c.add_argument("--model", metavar="FILE", help="altaz: TPOINT model file with the fitted terms")
+    c.add_argument("--form", choices=sorted(term_library.FORMS), default="linear", help="altaz: term form (default: linear)")
+    c.add_argument("--azimuth", choices=sorted(AZIMUTH_CONVENTIONS), default="N-E", help="altaz: encoder azimuth convention")
+    c.add_argument("--reflect", action="store_true", help="lines hold sun az el and target az el: command the mirror normal")
+    c.add_argument(
+        "--limits",
+        default=None,
+        help="axis limits in degrees: a1min,a1max,a2min,a2max (default: turntable 0,360 on axis 1; altaz none)",
+    )
+    c.add_argument("--solution", choices=SOLUTIONS, default="nearest", help="mechanical solution (default: nearest, i.e. normal)")
+    c.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
     return parser
+
+
+def _read_directions(path: str, columns: int) -> np.ndarray:
+    """``(n, columns)`` numbers (degrees) from a text file, naming file and line on error."""
+    text = sys.stdin.read() if path == "-" else Path(path).read_text()
+    name = "<stdin>" if path == "-" else path
+    rows = []
+    for number, line in enumerate(text.splitlines(), 1):
+        fields = line.split("#", 1)[0].replace(",", " ").split()
+        if not fields:
+            continue
+        if len(fields) != columns:
+            raise ValueError(f"{name}:{number}: expected {columns} numbers (degrees), got {len(fields)}: {line.strip()!r}")
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            raise ValueError(f"{name}:{number}: not a number in {line.strip()!r}") from None
+        if not all(np.isfinite(values)):
+            raise ValueError(f"{name}:{number}: non-finite value in {line.strip()!r}")
+        rows.append(values)
+    if not rows:
+        raise ValueError(f"{name}: no directions")
+    return np.asarray(rows)
+
+
+def _parse_params(spec: str, model) -> dict:
+    """``name=value`` pairs (display units) to radians for ``model.set``."""
+    units = {p.name: p.unit for p in model.parameters}
+    out = {}
+    for item in filter(None, (s.strip() for s in spec.split(","))):
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--params: expected name=value, got {item!r}")
+        if name not in units:
+            raise ValueError(f"--params: no parameter {name!r}; the model has {', '.join(units)}")
+        try:
+            out[name] = float(value) * UNITS[units[name]]
+        except ValueError:
+            raise ValueError(f"--params: {name}: not a number: {value!r}") from None
+    return out
+
+
+def _command_model(args):
+    if args.mount == "turntable":
+        model = Turntable(args.terms or "full")
+        default_limits = ((0.0, 2 * np.pi), None)
+    else:
+        if args.model:
+            tpoint_model = read_model(args.model)
+            names = args.terms or " ".join(t.name for t in tpoint_model.terms)
+            model = AltAz(term_library.tpoint(names, form=args.form), azimuth=args.azimuth)
+            known = set(model.parameter_names)
+            model = model.set(**{t.name: t.value * UNITS["arcsec"] for t in tpoint_model.terms if t.name in known})
+        else:
+            model = AltAz(term_library.tpoint(args.terms or term_library.BASIC_ALTAZ, form=args.form), azimuth=args.azimuth)
+        default_limits = None
+    model = model.set(**_parse_params(args.params, model))
+    if args.limits is None:
+        return model, default_limits
+    values = [float(v) for v in args.limits.split(",")]
+    if len(values) != 4:
+        raise ValueError(f"--limits: expected a1min,a1max,a2min,a2max in degrees, got {args.limits!r}")
+    lim = np.radians(values)
+    return model, ((lim[0], lim[1]), (lim[2], lim[3]))
+
+
+def _command_command(args) -> int:
+    model, limits = _command_model(args)
+    rows = _read_directions(args.directions, 4 if args.reflect else 2)
+    rad = np.radians(rows)
+
+    def enu(az, el):
+        return np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
+
+    if args.reflect:
+        cmd = command_reflector(model, enu(rad[:, 0], rad[:, 1]), enu(rad[:, 2], rad[:, 3]), limits=limits, solution=args.solution)
+    else:
+        cmd = command(model, enu(rad[:, 0], rad[:, 1]), limits=limits, solution=args.solution)
+    reading = np.degrees(np.asarray(cmd.reading))
+    ok = np.asarray(cmd.ok)
+    residual = np.asarray(cmd.residual)
+    reasons = cmd.reasons()
+    names = cmd.axis_names
+    if args.json:
+        out = [
+            {
+                "input_deg": [float(x) for x in row],
+                f"{names[0]}_deg": float(r[0]),
+                f"{names[1]}_deg": float(r[1]),
+                "ok": bool(k),
+                "residual_rad": float(res),
+                "reason": why,
+            }
+            for row, r, k, res, why in zip(rows, reading, ok, residual, reasons)
+        ]
+        print(json.dumps(out, indent=2))
+    else:
+        print(f"# {model.describe()}")
+        print(f"# {'input (deg)':<40s} {names[0] + ' (deg)':>14s} {names[1] + ' (deg)':>14s}  ok  reason")
+        for row, r, k, why in zip(rows, reading, ok, reasons):
+            text = " ".join(f"{x:9.4f}" for x in row)
+            print(f"  {text:<40s} {r[0]:14.6f} {r[1]:14.6f}  {'yes' if k else 'NO ':3s} {why}")
+    return 0 if bool(np.all(ok)) else 1
 
 
 def _fit_paint(args) -> int:
@@ -127,11 +265,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "fit":
             return _fit_command(args)
+        if args.command == "command":
+            return _command_command(args)
     except (TpointFormatError, PaintFormatError, ValueError, KeyError) as err:
         print(f"pointax: error: {err}", file=sys.stderr)
         return 2
     except OSError as err:
-        print(f"pointax: error: {err.filename or args.data}: {err.strerror or err}", file=sys.stderr)
+        where = err.filename or getattr(args, "data", None) or getattr(args, "directions", "")
+        print(f"pointax: error: {where}: {err.strerror or err}", file=sys.stderr)
         return 2
     parser.error(f"unknown command {args.command}")
     return 2

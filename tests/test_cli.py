@@ -91,3 +91,81 @@ def test_bad_input_exit_code_and_message(capsys, tmp_path):
 def test_non_convergence_exit_code(capsys):
     assert main(["fit", str(MMT_DAT), "--terms", "IA,IE", "--max-steps", "1"]) == 1
     assert "NOT CONVERGED" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ pointax command
+
+TURNTABLE_PARAMS = "mu0=0.0751,nu0=0.0145,omega0=-0.0947,alpha0=60.5425,beta0=165.8931"
+
+
+def _enu(az_deg, el_deg):
+    az, el = np.radians(az_deg), np.radians(el_deg)
+    return np.array([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
+
+
+def test_command_turntable_json_points_where_asked(tmp_path, capsys):
+    import pointax as px
+
+    wanted = [(141.022, 50.469), (359.9, 30.0), (0.1, 70.0), (222.0, 15.0)]
+    path = tmp_path / "dirs.txt"
+    path.write_text("# az el\n" + "\n".join(f"{a} {e}  # a comment" for a, e in wanted) + "\n")
+    assert main(["command", str(path), "--params", TURNTABLE_PARAMS, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out) == len(wanted)
+    values = dict(kv.split("=") for kv in TURNTABLE_PARAMS.split(","))
+    model = px.Turntable("full").set(**{k: px.deg(float(v)) for k, v in values.items()})
+    for row, (az, el) in zip(out, wanted):
+        assert row["ok"] and row["reason"] == ""
+        # Independent check: the model evaluated at the printed readings.
+        reading = np.radians([row["alpha_deg"], row["beta_deg"]])
+        assert 0.0 <= reading[0] < 2 * np.pi  # default turntable limits 0..360 deg
+        np.testing.assert_allclose(np.asarray(model(reading)), _enu(az, el), atol=1e-9)
+
+
+def test_command_reflect_flags_opposite_pairs(tmp_path, capsys):
+    path = tmp_path / "pairs.txt"
+    path.write_text("141.022 50.469 200 60\n90 30 270 -30\n")
+    assert main(["command", str(path), "--reflect", "--params", TURNTABLE_PARAMS]) == 1
+    out = capsys.readouterr().out
+    assert "sun and target are opposite" in out
+    assert out.count(" yes ") == 1
+
+
+def test_command_altaz_with_tpoint_model(tmp_path, capsys):
+    import pointax as px
+
+    path = tmp_path / "dirs.txt"
+    path.write_text("141.022 50.469\n10 45\n")
+    args = ["command", str(path), "--mount", "altaz", "--model", str(MMT_MOD), "--azimuth", "S-E", "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    mod = read_model(MMT_MOD)
+    model = px.AltAz(px.terms.tpoint(" ".join(t.name for t in mod.terms)), azimuth="S-E")
+    model = model.set(**{t.name: px.arcsec(t.value) for t in mod.terms})
+    for row in out:
+        reading = np.radians([row["az_deg"], row["el_deg"]])
+        np.testing.assert_allclose(np.asarray(model(reading)), _enu(*row["input_deg"]), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("141 50 7\n", "dirs.txt:1: expected 2 numbers"),
+        ("\n141 fifty\n", "dirs.txt:2: not a number"),
+        ("# nothing\n", "no directions"),
+    ],
+)
+def test_command_bad_directions_file(tmp_path, capsys, text, message):
+    path = tmp_path / "dirs.txt"
+    path.write_text(text)
+    assert main(["command", str(path), "--params", TURNTABLE_PARAMS]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_command_bad_params(tmp_path, capsys):
+    path = tmp_path / "dirs.txt"
+    path.write_text("141 50\n")
+    assert main(["command", str(path), "--params", "zeta0=1"]) == 2
+    assert "no parameter 'zeta0'" in capsys.readouterr().err
+    assert main(["command", str(tmp_path / "missing.txt")]) == 2
+    assert "missing.txt" in capsys.readouterr().err

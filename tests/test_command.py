@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -276,3 +280,23 @@ def test_gradient_through_the_inverse():
         np.testing.assert_allclose(grad[i], fd, rtol=1e-6, atol=1e-6)
     # The encoder zeros shift the readings one for one.
     np.testing.assert_allclose(grad[3:], [float(weights[:, 0].sum()), float(weights[:, 1].sum())], rtol=1e-10)
+
+
+def test_float64_without_global_x64():
+    code = textwrap.dedent(
+        """
+        import jax, jax.numpy as jnp, numpy as np
+        import pointax as px
+        from pointax.command import command
+        assert not jax.config.jax_enable_x64
+        model = px.AltAz(px.terms.tpoint("IA CA", form="rigorous"))
+        c = command(model, [0.3, 0.4, np.sqrt(0.75)])
+        assert c.reading.dtype == jnp.float64, c.reading.dtype
+        assert bool(c.ok) and float(c.residual) < 1e-14, (c.reasons(), c.residual)
+        assert not jax.config.jax_enable_x64
+        print("ok")
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().endswith("ok")
