@@ -51,7 +51,11 @@ def _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, 
         fold_obs = eqx.tree_at(lambda o: o.weight, obs, obs.weight * mask)
         return _fit(model, fold_obs, solver, max_steps, rtol, atol, "", loss, loss_scale, reject)
 
-    folds = jax.vmap(one_fold)(masks)
+    # lax.map rather than vmap: the folds run one after another in one compiled loop.
+    # Compiling a single fit's body is 3x faster than compiling it batched (7 s
+    # against 22 s for a robust heliostat fit on 2 cores), and each fold then stops
+    # at its own step count instead of running as long as the slowest.
+    folds = jax.lax.map(one_fold, masks)
     # Fold i's model evaluated on observation i alone (weight 1, so it is not zeroed).
     single = jax.vmap(lambda o, t: Observations(o[None], t[None], convention=obs.convention))(obs.encoder, obs.target)
     offsets = jax.vmap(lambda fold_model, one: residuals(fold_model, one)[0])(folds.model, single)
@@ -74,7 +78,7 @@ def leave_one_out(
 ) -> LeaveOneOut:
     """Fit ``model`` once per observation with that observation left out, and predict it.
 
-    All ``n`` fits run batched (``jax.vmap``) in one compiled call. The keyword
+    All ``n`` fits run in one compiled call (a ``lax.map`` over the folds). The keyword
     arguments are those of :func:`pointax.fit`; with a robust ``loss`` each fold finds
     its own outliers, so a left-out gross outlier cannot help predict itself.
 

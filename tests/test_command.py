@@ -6,6 +6,7 @@ import subprocess
 import sys
 import textwrap
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -31,8 +32,13 @@ def _directions(seed: int, n: int, el_min: float, el_max: float) -> np.ndarray:
     return np.array(azel_to_enu(az, el))
 
 
+@eqx.filter_jit
+def _forward(model, reading):
+    return jax.vmap(model.direction)(reading)
+
+
 def _error(model, reading, direction) -> np.ndarray:
-    return np.asarray(angle_between(model(reading), direction))
+    return np.asarray(angle_between(_forward(model, reading), direction))
 
 
 def _turntable(values) -> px.Model:
@@ -52,7 +58,7 @@ tpoint_coef = st.floats(-300.0, 300.0)  # arcsec
 # ------------------------------------------------------------------ round trips
 
 
-@settings(max_examples=10, deadline=None)
+@settings(max_examples=6, deadline=None)
 @given(tilts=st.tuples(small, small, small), zeros=st.tuples(zero, zero), seed=st.integers(0, 2**31))
 def test_round_trip_turntable(tilts, zeros, seed):
     model = _turntable(np.radians([*tilts, *zeros]))
@@ -66,7 +72,7 @@ def test_round_trip_turntable(tilts, zeros, seed):
 
 
 @pytest.mark.parametrize("form", ["rigorous", "linear"])
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=5, deadline=None)
 @given(coefs=st.tuples(*[tpoint_coef] * 8), seed=st.integers(0, 2**31))
 def test_round_trip_altaz(form, coefs, seed):
     model = _altaz(form, np.asarray(coefs) * ARCSEC)
@@ -200,7 +206,7 @@ def test_reflector_perfect_turntable():
     target = _directions(3, N, -10.0, 30.0)
     c = command_reflector(model, sun, target)
     assert bool(jnp.all(c.ok)), set(c.reasons())
-    n = np.asarray(model(c.reading))
+    n = np.asarray(_forward(model, c.reading))
     reflected = 2 * np.sum(n * sun, axis=-1, keepdims=True) * n - sun
     assert np.max(np.abs(reflected - target)) < 1e-12
     np.testing.assert_allclose(np.asarray(reflect_normal(sun, target)), n, atol=1e-12)

@@ -312,7 +312,7 @@ def test_aa39_calibration(aa39_run, aa39_cal):
     # The final stage: plain least squares of the four tilts on the unflagged samples.
     x, res = _scipy_tilts(motor[keep], normals[keep], "tangent")
     got = np.array([cal.result.value(n, "rad") for n in TILTS])
-    np.testing.assert_allclose(got / MRAD, x / MRAD, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got / MRAD, x / MRAD, rtol=0, atol=5e-6)  # measured 3e-7 mrad
     np.testing.assert_allclose(cal.result.sky_rms, math.sqrt(np.sum(res**2) / keep.sum()), rtol=1e-9)
     np.testing.assert_allclose(after, math.sqrt(np.mean(np.sum(res**2, axis=-1))), rtol=1e-9)
     # After-errors of every sample (outliers too) from the numpy model with scipy's tilts.
@@ -320,9 +320,10 @@ def test_aa39_calibration(aa39_run, aa39_cal):
     after_np = np.array([np.linalg.norm(np_tangent_offset(np_normal(t, p), m)) for t, m in zip(np_axis_angles(motor), normals)])
     np.testing.assert_allclose(cal.after, after_np, rtol=0, atol=1e-9)
 
-    # The chord (3-vector difference) residual has a slightly different minimiser.
+    # The chord (3-vector difference, 2 sin(angle/2) long instead of tan(angle)) differs
+    # at third order in the few-mrad residuals: its minimiser moves by ~3e-6 mrad.
     x_chord, res_chord = _scipy_tilts(motor[keep], normals[keep], "chord")
-    np.testing.assert_allclose(got / MRAD, x_chord / MRAD, rtol=0, atol=0.05)
+    np.testing.assert_allclose(got / MRAD, x_chord / MRAD, rtol=0, atol=1e-3)
     assert math.isclose(cal.result.sky_rms, math.sqrt(np.sum(res_chord**2) / keep.sum()), rel_tol=0, abs_tol=1e-3 * MRAD)
 
 
