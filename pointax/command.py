@@ -54,14 +54,15 @@ OPPOSITE_TOL = 1e-9
 """:func:`reflect_normal` gives NaN where ``|sun + target|`` (about the angle by which
 the two miss being exactly opposite, radians) is at most this."""
 
-# Per-direction status codes (Command.status). Codes below 4 exclude each other; the
+# Per-direction status codes (Command.status). Codes below 8 exclude each other; the
 # two limit bits may be set together.
 _OK = 0
 _NON_FINITE = 1
 _NOT_CONVERGED = 2
 _OPPOSITE = 3
-_AXIS1_OUT = 4
-_AXIS2_OUT = 8
+_NO_FLIP = 4
+_AXIS1_OUT = 8  # bit
+_AXIS2_OUT = 16  # bit
 
 _TWO_PI = 2.0 * np.pi
 # A safe direction solved in place of a non-finite one (its result is discarded).
@@ -114,8 +115,10 @@ class Command(eqx.Module):
     def reasons(self) -> list[str]:
         """Why each direction is not ``ok``, in words ('' where it is), flattened in
         row-major (C) order: ``"non-finite direction"``, ``"sun and target are
-        opposite: mirror normal undefined"``, ``"did not converge"`` or
-        ``"out of limits: axis 2 (el) reading 1.7 rad outside [0, 1.5708]"``."""
+        opposite: mirror normal undefined"``, ``"did not converge"``, ``"no flipped
+        solution..."`` (a mount that cannot go over the top, such as a heliostat's
+        linear actuators) or ``"out of limits: axis 2 (el) reading 1.7 rad outside
+        [0, 1.5708]"``."""
         status = np.asarray(self.status).reshape(-1)
         reading = np.asarray(self.reading).reshape(-1, 2)
         residual = np.asarray(self.residual).reshape(-1)
@@ -131,6 +134,8 @@ class Command(eqx.Module):
                 out.append("sun and target are opposite: mirror normal undefined")
             elif s == _NOT_CONVERGED:
                 out.append(f"did not converge (residual {res:.3g} rad)")
+            elif s == _NO_FLIP:
+                out.append("no flipped solution: it gives the same reading as the normal one")
             else:
                 parts = []
                 for axis, bit in ((0, _AXIS1_OUT), (1, _AXIS2_OUT)):
@@ -263,6 +268,11 @@ def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps
     readings = readings.reshape(n, 2, 2)
     residuals = residuals.reshape(n, 2)
     status = status.reshape(n, 2)
+    # A mount that cannot go over the top (linear actuators, whose reading of an angle
+    # does not tell it from its mirror image) solves "flipped" back to the normal
+    # reading: there is no distinct second solution.
+    same = jnp.all(jnp.abs(readings[:, 1] - readings[:, 0]) <= 1e-6 * (1.0 + jnp.abs(readings[:, 0])), axis=-1)
+    status = status.at[:, 1].set(jnp.where(same & (status[:, 1] != _NOT_CONVERGED), _NO_FLIP, status[:, 1]))
     steps = steps.reshape(n, 2)
     ok2 = status == _OK
 
@@ -324,10 +334,12 @@ def command(
         model: the pointing model (:class:`pointax.Model`).
         direction: ``(..., 3)`` wanted directions, East-North-Up (normalised here; a
             non-finite or zero vector gives ``ok=False``, "non-finite direction").
-        solution: ``"normal"`` (axis 2 within 90 deg of its zero, for an alt-az mount
-            elevation in [-90, 90] deg), ``"flipped"`` (over the top: axis 1 + 180 deg,
-            axis 2 = 180 deg - elevation) or ``"nearest"`` (of those that are ``ok``,
-            the one nearer ``near``, or the normal one when ``near`` is None).
+        solution: ``"normal"`` (the mount's axis-2 angle, after encoder corrections,
+            within 90 deg of its zero: for an alt-az mount elevation in [-90, 90] deg),
+            ``"flipped"`` (over the top: axis 1 + 180 deg, axis 2 = 180 deg -
+            elevation) or ``"nearest"`` (of those that are ``ok``, the one nearer
+            ``near``, or the normal one when ``near`` is None; where neither is ok,
+            that one is returned with its reason).
         near: ``(2,)`` or ``(..., 2)`` current readings (reading units): the branch of
             each axis (whole-turn shifts) and, for ``"nearest"``, the mechanical
             solution nearest them are chosen. Distances are summed over the two axes.
@@ -342,6 +354,9 @@ def command(
             of the limits.
         tol: Newton tolerance (radians) on the tangent-plane offset and the step; a
             result counts as converged when its residual is at most ``10 * tol``.
+            Directions the model cannot reach at all (e.g. within ``|CA|`` of the
+            zenith of an alt-az mount with collimation error) report "did not
+            converge".
         max_steps: most Newton steps.
 
     Returns:
