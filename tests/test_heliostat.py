@@ -55,7 +55,7 @@ def np_axis_angles(motor):
         s0 = AA39["initial_stroke"][k]
         s = motor[..., k] / AA39["increment"][k] + s0
 
-        def phi(stroke):
+        def phi(stroke, a=a, r=r):
             return np.arccos((a**2 + r**2 - stroke**2) / (2 * a * r))
 
         sign = 1.0 if AA39["clockwise"][k] == 1 else -1.0
@@ -166,9 +166,9 @@ def test_full_chain_matches_numpy_product(full_model):
     # Model.direction (one reading) agrees with the batched call.
     np.testing.assert_allclose(np.asarray(full_model.direction(jnp.asarray(motor[0]))), want[0], atol=1e-13)
     # Every term matters: dropping any one changes the normal by about its size.
-    for name in PARAMS:
+    for name, value in PARAMS.items():
         other = np.array([np_normal(t, {k: v for k, v in PARAMS.items() if k != name}) for t in theta])
-        assert np.max(np.linalg.norm(other - got, axis=-1)) > 0.3 * abs(PARAMS[name])
+        assert np.max(np.linalg.norm(other - got, axis=-1)) > 0.3 * abs(value)
 
 
 def test_nominal_chain_is_tilt_tilt():
@@ -317,14 +317,17 @@ def test_aa39_calibration(aa39_run, aa39_cal):
     np.testing.assert_allclose(after, math.sqrt(np.mean(np.sum(res**2, axis=-1))), rtol=1e-9)
     # After-errors of every sample (outliers too) from the numpy model with scipy's tilts.
     p = dict(zip(TILTS, x))
-    after_np = np.array([np.linalg.norm(np_tangent_offset(np_normal(t, p), m)) for t, m in zip(np_axis_angles(motor), normals)])
+    after_np = np.array(
+        [np.linalg.norm(np_tangent_offset(np_normal(t, p), m)) for t, m in zip(np_axis_angles(motor), normals)]
+    )
     np.testing.assert_allclose(cal.after, after_np, rtol=0, atol=1e-9)
 
     # The chord (3-vector difference, 2 sin(angle/2) long instead of tan(angle)) differs
     # at third order in the few-mrad residuals: its minimiser moves by ~3e-6 mrad.
     x_chord, res_chord = _scipy_tilts(motor[keep], normals[keep], "chord")
     np.testing.assert_allclose(got / MRAD, x_chord / MRAD, rtol=0, atol=1e-3)
-    assert math.isclose(cal.result.sky_rms, math.sqrt(np.sum(res_chord**2) / keep.sum()), rel_tol=0, abs_tol=1e-3 * MRAD)
+    rms_chord = math.sqrt(np.sum(res_chord**2) / keep.sum())
+    assert math.isclose(cal.result.sky_rms, rms_chord, rel_tol=0, abs_tol=1e-3 * MRAD)
 
 
 def test_aa39_t2e_and_d1_are_degenerate(aa39_run, aa39_cal):

@@ -221,16 +221,22 @@ def test_robust_stage_minimises_sum_rho(dirty, reference):
 
 @pytest.fixture(scope="module")
 def small():
-    """16 observations: one gross outlier (row 3), one row with weight 0 holding NaN (row 9)."""
+    """16 observations (rows 0-15): one gross outlier (row 3) and one row with weight 0
+    holding NaN (row 9). Padded with 44 weight-0 NaN rows to the 60 rows of the other
+    tests' data, so the fits reuse their compiled code (and padding is exercised)."""
     obs = px.simulate(_model(TRUE), encoder_grid(4, (25, 45, 65, 85), az_offset_deg=20), noise=ARCSEC, seed=8)
     obs = _inject(obs, {3: 150.0}, seed=1)
-    target, weight = np.array(obs.target), np.ones(len(obs))
+    encoder = np.full((60, 2), np.nan)
+    target = np.full((60, 3), np.nan)
+    weight = np.zeros(60)
+    encoder[:16], target[:16], weight[:16] = obs.encoder, obs.target, 1.0
     target[9] = np.nan
     weight[9] = 0.0
-    return px.Observations(obs.encoder, target, weight, obs.convention)
+    return px.Observations(encoder, target, weight, obs.convention)
 
 
 SMALL_USED = [i for i in range(16) if i != 9]
+UNUSED = [9] + list(range(16, 60))
 
 
 @pytest.fixture(scope="module")
@@ -245,7 +251,8 @@ def loo_runs(small):
             w = np.asarray(small.weight).copy()
             w[i] = 0.0
             r = px.fit(_model(), small, weights=w, loss=loss)
-            one = px.Observations(np.asarray(small.encoder)[i : i + 1], np.asarray(small.target)[i : i + 1], None, small.convention)
+            row = slice(i, i + 1)
+            one = px.Observations(np.asarray(small.encoder)[row], np.asarray(small.target)[row], None, small.convention)
             loop[i] = (r, np.asarray(px.residuals(r.model, one))[0])
         out[loss] = (loo, loop)
     return out
@@ -258,7 +265,7 @@ def test_leave_one_out_matches_a_loop_of_fits(small, loo_runs, loss):
     assert loo.errors.shape == (n,)
     errors, offsets = np.asarray(loo.errors), np.asarray(loo.offsets)
     # The weight-0 row is NaN; its NaN target poisons no other fold.
-    assert np.isnan(errors[9]) and np.all(np.isnan(offsets[9]))
+    assert np.all(np.isnan(errors[UNUSED])) and np.all(np.isnan(offsets[UNUSED]))
     assert np.all(np.isfinite(errors[SMALL_USED]))
     for i in SMALL_USED:
         r, offset = loop[i]
@@ -266,7 +273,7 @@ def test_leave_one_out_matches_a_loop_of_fits(small, loo_runs, loss):
         assert abs(errors[i] - np.linalg.norm(offset)) < 1e-9
         np.testing.assert_allclose(np.asarray(loo.folds.values)[i], np.asarray(r.values), rtol=0, atol=1e-9)
         np.testing.assert_array_equal(np.asarray(loo.folds.outliers)[i], np.asarray(r.outliers))
-        assert bool(loo.converged[i]) == bool(r.converged)
+        assert int(loo.folds.n_obs[i]) == int(r.n_obs) <= 14
     assert math.isclose(loo.rms(), math.sqrt(np.mean(errors[SMALL_USED] ** 2)), rel_tol=1e-12)
     if loss == "linear":
         assert np.all(np.asarray(loo.converged)[SMALL_USED])
@@ -276,21 +283,6 @@ def test_leave_one_out_matches_a_loop_of_fits(small, loo_runs, loss):
         outliers = np.asarray(loo.folds.outliers)
         assert all(outliers[i, 3] for i in SMALL_USED if i != 3)
         assert np.max(errors[[i for i in SMALL_USED if i != 3]]) < 10 * ARCSEC
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason="library: the robust (cauchy) stage of some folds of these 16 observations hits max_steps=256 "
-    "(LM crawls along the flat IA/CA/NPAE valley at rtol=1e-10, atol=1e-13) though the final "
-    "least-squares stage converges; converged is then False and FitResult.message wrongly says "
-    "'the solver stopped with non-finite values' (pointax/fit.py, FitResult.message)",
-)
-def test_robust_leave_one_out_folds_converge(loo_runs):
-    loo, loop = loo_runs["cauchy"]
-    for i in SMALL_USED:
-        r = loop[i][0]
-        assert "non-finite" not in r.message or not np.all(np.isfinite(np.asarray(r.values)))
-    assert np.all(np.asarray(loo.converged)[SMALL_USED])
 
 
 # --------------------------------------------------------------------------- 6. arguments
