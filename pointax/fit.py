@@ -41,7 +41,7 @@ from .observations import Observations
 from .rotations import tangent_offset
 from .units import ARCSEC, UNITS
 
-__all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma"]
+__all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma", "check_options"]
 
 SOLVERS = {
     "lm": ("Levenberg-Marquardt", optx.LevenbergMarquardt),
@@ -107,6 +107,10 @@ class FitResult(eqx.Module):
         outliers: ``(N,)`` observations a robust fit rejected (never for loss 'linear').
         robust_scale: robust per-axis standard deviation (radians) outliers were judged
             by (0 for loss 'linear').
+        robust_converged: whether the robust passes that chose the outliers met their
+            tolerances (always True for loss 'linear'). ``converged`` is the final
+            least-squares stage's; a robust pass that stopped at ``max_steps`` is
+            reported by :meth:`warnings`, since the outlier choice may then be off.
         solver: solver name.
         loss: loss name (:data:`LOSSES`).
     """
@@ -127,6 +131,7 @@ class FitResult(eqx.Module):
     degenerate: Bool[Array, " m"]
     outliers: Bool[Array, " n"]
     robust_scale: Float[Array, ""]
+    robust_converged: Bool[Array, ""]
     names: tuple[str, ...] = eqx.field(static=True)
     units: tuple[str, ...] = eqx.field(static=True)
     solver: str = eqx.field(static=True)
@@ -199,6 +204,11 @@ class FitResult(eqx.Module):
         out = []
         if not bool(self.converged):
             out.append(f"the fit did not converge after {int(self.iterations)} iterations: {self.message}")
+        if not bool(self.robust_converged):
+            out.append(
+                f"the robust ({self.loss}) passes that chose the outliers did not converge; "
+                "the outlier flags may be off (raise max_steps)"
+            )
         degenerate = [n for n, d in zip(self.names, np.asarray(self.degenerate)) if d]
         if degenerate:
             out.append(
@@ -293,6 +303,18 @@ class FitResult(eqx.Module):
             "outliers": self.outlier_indices(),
             "warnings": self.warnings(),
         }
+
+
+def check_options(solver: str, loss: str, loss_scale: float | None, reject: float) -> None:
+    """Raise ValueError, naming the argument, for a bad solver or robust-loss option."""
+    if solver not in SOLVERS:
+        raise ValueError(f"unknown solver {solver!r}; expected one of {sorted(SOLVERS)}")
+    if loss not in LOSSES:
+        raise ValueError(f"unknown loss {loss!r}; expected one of {sorted(LOSSES)}")
+    if loss_scale is not None and not (math.isfinite(loss_scale) and loss_scale > 0):
+        raise ValueError(f"loss_scale must be a positive number of radians, got {loss_scale!r}")
+    if not (math.isfinite(reject) and reject > 0):
+        raise ValueError(f"reject must be a positive number of robust sigmas, got {reject!r}")
 
 
 def as_observations(data) -> Observations:
@@ -436,7 +458,7 @@ def _fit(
     corr = cov / (safe[:, None] * safe[None, :])
     corr = jnp.where(degenerate[:, None] | degenerate[None, :], jnp.nan, corr)
     finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
-    converged = (sol.result == optx.RESULTS.successful) & robust_ok & finite
+    converged = (sol.result == optx.RESULTS.successful) & finite
     params = model.free_parameters
     return FitResult(
         model=fitted,
@@ -455,6 +477,7 @@ def _fit(
         degenerate=degenerate,
         outliers=outliers,
         robust_scale=scale,
+        robust_converged=robust_ok,
         names=tuple(p.name for p in params),
         units=tuple(p.unit for p in params),
         solver=solver,
@@ -507,14 +530,7 @@ def fit(
         A :class:`FitResult`. A fit that fails to converge does not raise: check
         ``result.converged`` (the report and ``warnings()`` say why).
     """
-    if solver not in SOLVERS:
-        raise ValueError(f"unknown solver {solver!r}; expected one of {sorted(SOLVERS)}")
-    if loss not in LOSSES:
-        raise ValueError(f"unknown loss {loss!r}; expected one of {sorted(LOSSES)}")
-    if loss_scale is not None and not (math.isfinite(loss_scale) and loss_scale > 0):
-        raise ValueError(f"loss_scale must be a positive number of radians, got {loss_scale!r}")
-    if not reject > 0:
-        raise ValueError(f"reject must be positive, got {reject!r}")
+    check_options(solver, loss, loss_scale, reject)
     obs = as_observations(data)
     _check_convention(model, obs)
     if weights is not None:

@@ -133,8 +133,8 @@ class HeliostatCalibration:
 def _errors(model: Model, obs: Observations) -> np.ndarray:
     """Angle between observed and modelled direction of every observation, radians."""
     every = Observations(obs.encoder, obs.target, None, obs.convention)  # weights aside
-    r = residuals(model, every)
-    return np.asarray(jnp.sqrt(jnp.sum(r**2, axis=-1)))
+    r = residuals(model, every)  # gnomonic offsets: the norm is tan(angle)
+    return np.asarray(jnp.arctan(jnp.sqrt(jnp.sum(r**2, axis=-1))))
 
 
 @float64

@@ -9,7 +9,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._x64 import float64
-from .fit import LOSSES, SOLVERS, FitResult, _fit, as_observations, residuals
+from .fit import FitResult, _fit, as_observations, check_options, residuals
 from .model import Model
 from .observations import Observations
 
@@ -89,15 +89,13 @@ def leave_one_out(
     Returns:
         :class:`LeaveOneOut` with each observation's out-of-sample error.
     """
-    if solver not in SOLVERS:
-        raise ValueError(f"unknown solver {solver!r}; expected one of {sorted(SOLVERS)}")
-    if loss not in LOSSES:
-        raise ValueError(f"unknown loss {loss!r}; expected one of {sorted(LOSSES)}")
+    check_options(solver, loss, loss_scale, reject)
     obs = as_observations(data)
     if int(np.sum(np.asarray(obs.weight) > 0)) < 2:
         raise ValueError("leave-one-out needs at least two observations with positive weight")
     model = model.with_values(model.values())
     obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), obs)
     offsets, folds = _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
-    errors = jnp.sqrt(jnp.sum(offsets**2, axis=-1))
+    # The offsets are gnomonic (tangent-plane) coordinates: their norm is tan(angle).
+    errors = jnp.arctan(jnp.sqrt(jnp.sum(offsets**2, axis=-1)))
     return LeaveOneOut(offsets=offsets, errors=errors, converged=folds.converged, folds=folds)

@@ -290,15 +290,14 @@ def test_aa39_calibration(aa39_run, aa39_cal):
     assert len(flagged) <= 6
 
     motor, normals = np.asarray(aa39_run.motor), np.asarray(aa39_run.measured_normal)
-    # Before: the nominal kinematics, numpy. The calibration's "errors" are norms of
-    # gnomonic offsets, tan(angle): equal to the angle to (angle^2 / 3) relative.
+    # Before: the nominal kinematics, numpy; the errors are great-circle angles.
     nominal = np.array([np_angle(np_normal(t), m) for t, m in zip(np_axis_angles(motor), normals)])
-    np.testing.assert_allclose(cal.before, nominal, rtol=3e-3, atol=0)
+    np.testing.assert_allclose(cal.before, nominal, rtol=1e-9, atol=0)
     for sid in ("86520", "multi1"):
         assert 65 * MRAD < nominal[ids.index(sid)] < 85 * MRAD
     before_all = math.sqrt(np.mean(nominal**2))
     assert 20 * MRAD < before_all < 40 * MRAD
-    assert math.isclose(cal.rms("before", include_outliers=True), before_all, rel_tol=3e-3)
+    assert math.isclose(cal.rms("before", include_outliers=True), before_all, rel_tol=1e-9)
 
     keep = ~cal.outliers
     loo = cal.rms("loo")
@@ -314,11 +313,12 @@ def test_aa39_calibration(aa39_run, aa39_cal):
     got = np.array([cal.result.value(n, "rad") for n in TILTS])
     np.testing.assert_allclose(got / MRAD, x / MRAD, rtol=0, atol=5e-6)  # measured 3e-7 mrad
     np.testing.assert_allclose(cal.result.sky_rms, math.sqrt(np.sum(res**2) / keep.sum()), rtol=1e-9)
-    np.testing.assert_allclose(after, math.sqrt(np.mean(np.sum(res**2, axis=-1))), rtol=1e-9)
+    # Errors are angles: arctan of the tangent-plane offset's norm.
+    np.testing.assert_allclose(after, math.sqrt(np.mean(np.arctan(np.linalg.norm(res, axis=-1)) ** 2)), rtol=1e-9)
     # After-errors of every sample (outliers too) from the numpy model with scipy's tilts.
     p = dict(zip(TILTS, x))
     after_np = np.array(
-        [np.linalg.norm(np_tangent_offset(np_normal(t, p), m)) for t, m in zip(np_axis_angles(motor), normals)]
+        [np.arctan(np.linalg.norm(np_tangent_offset(np_normal(t, p), m))) for t, m in zip(np_axis_angles(motor), normals)]
     )
     np.testing.assert_allclose(cal.after, after_np, rtol=0, atol=1e-9)
 
