@@ -224,7 +224,10 @@ def _command_command(args) -> int:
 def _fit_paint(args) -> int:
     run = read_paint(args.data, focal_spot=args.focal_spot)
     terms = args.terms if args.terms is not None else HELIOSTAT_DEFAULT
-    cal = calibrate_heliostat(run, terms, loss=args.loss or "cauchy", solver=args.solver)
+    fixed = [name.strip() for name in args.fix.split(",") if name.strip()]
+    cal = calibrate_heliostat(
+        run, terms, loss=args.loss or "cauchy", solver=args.solver, max_steps=args.max_steps, fixed=fixed
+    )
     if args.json:
         print(json.dumps({"directory": args.data, **cal.to_dict()}, indent=2))
     else:

@@ -145,6 +145,8 @@ def calibrate_heliostat(
     loss: str = "cauchy",
     reject: float = 3.0,
     solver: str = "lm",
+    max_steps: int = 256,
+    fixed: Iterable[str] = (),
     focal_spot: str = "HeliOS",
 ) -> HeliostatCalibration:
     """Calibrate one heliostat on its PAINT samples and cross-check it.
@@ -156,6 +158,8 @@ def calibrate_heliostat(
         loss: robust loss (:data:`pointax.fit.LOSSES`); 'linear' for plain least squares.
         reject: outlier threshold in robust standard deviations.
         solver: least-squares solver name.
+        max_steps: solver step limit of each fit.
+        fixed: parameters held at 0 (their nominal value).
         focal_spot: focal-spot method when ``run`` is a folder.
 
     Returns:
@@ -164,10 +168,11 @@ def calibrate_heliostat(
     """
     if not isinstance(run, PaintRun):
         run = read_paint(run, focal_spot=focal_spot)
-    model = heliostat_model(run, terms)
+    model = heliostat_model(run, terms).fix(*fixed)
     obs = run.observations
-    result = fit(model, obs, loss=loss, reject=reject, solver=solver)
-    loo = leave_one_out(model, obs, loss=loss, reject=reject, solver=solver)
+    options = {"loss": loss, "reject": reject, "solver": solver, "max_steps": max_steps}
+    result = fit(model, obs, **options)
+    loo = leave_one_out(model, obs, **options)
     return HeliostatCalibration(
         sample_ids=tuple(run.sample_ids),
         result=result,
