@@ -28,9 +28,9 @@ from __future__ import annotations
 
 import time
 
+import astropy.units as u
 import jax.numpy as jnp
 import numpy as np
-import astropy.units as u
 from astropy.time import Time
 
 import pointax as px
@@ -59,7 +59,9 @@ class SensorMisalignment(px.Term):
     up: float = px.param(0.0, unit="deg")
 
     def boresight_rotation(self, angles):
-        return px.rotations.small_tilt(self.up, -self.east)
+        # The mirror frame's boresight is +y: a turn about z moves it sideways (east
+        # positive), one about x lifts it.
+        return px.rotations.rot_z(-self.east) @ px.rotations.rot_x(self.up)
 
 
 def sun_track(day: str, minutes: float, offset_min: float = 0.0) -> tuple[Time, np.ndarray]:

@@ -15,12 +15,18 @@ from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .model import AltAz, Model, ParameterInfo, Turntable
-from .mounts import AZIMUTH_CONVENTIONS, AltAzMount, HeliostatMount, Mount, TurntableMount
+from .mounts import (
+    AZIMUTH_CONVENTIONS,
+    AltAzMount,
+    HeliostatMount,
+    Mount,
+    TurntableMount,
+)
 from .observations import Observations
 from .simulate import simulate
-from .validate import LeaveOneOut, leave_one_out
 from .terms import Term, param
 from .units import arcsec, deg, rad
+from .validate import LeaveOneOut, leave_one_out
 
 __version__ = "0.1.0"
 

@@ -8,8 +8,9 @@
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
 object with the keys ``n_obs``, ``sky_rms_arcsec``, ``popn_sd_arcsec``, ``converged``,
 ``terms`` (``name``, ``value_arcsec``, ``sigma_arcsec``) and ``correlation`` (in the
-order of ``terms``), plus ``iterations``, ``message``, ``solver``, ``fixed`` and
-``warnings``. Exit status: 0 on a converged fit, 1 if the fit did not converge, 2 for
+order of ``terms``), plus ``iterations``, ``message``, ``solver``, ``fixed``,
+``loss``, ``outliers`` (0-based indices of observations a robust ``--loss`` rejected;
+``n_obs`` counts the observations kept) and ``warnings``. Exit status: 0 on a converged fit, 1 if the fit did not converge, 2 for
 bad input.
 
 ``pointax fit DIR --format paint`` calibrates one PAINT heliostat folder (robust fit,
@@ -17,7 +18,10 @@ outlier flags, leave-one-out; :func:`pointax.calibrate_heliostat`) and prints th
 and a per-sample table, or with ``--json`` the keys ``n_obs``, ``params`` (``name``,
 ``value``, ``sigma``, ``unit``), ``error_mrad`` (``before``, ``after``, ``loo``: one
 value per sample in file order; ``rms`` over the unflagged samples and ``rms_all``),
-``samples``, ``outliers`` and more (see :meth:`pointax.HeliostatCalibration.to_dict`).
+``samples`` (ids in file order), ``outliers`` (ids of flagged samples), ``n_used``
+(samples kept by the fit; ``n_obs`` counts all of them) and more (see
+:meth:`pointax.HeliostatCalibration.to_dict`). The "unflagged" samples are those the
+fit of all samples kept; each leave-one-out fit re-detects outliers without its sample.
 
 ``pointax command`` is the inverse: encoder commands for wanted directions
 (:func:`pointax.command`). DIRECTIONS is a text file ('-' for standard input) with one
@@ -50,7 +54,15 @@ from . import terms as term_library
 from .command import SOLUTIONS, command, command_reflector
 from .fit import LOSSES, SOLVERS, fit
 from .heliostat import calibrate_heliostat
-from .io import FOCAL_SPOT_METHODS, PaintFormatError, TpointFormatError, read_model, read_paint, read_tpoint, write_model
+from .io import (
+    FOCAL_SPOT_METHODS,
+    PaintFormatError,
+    TpointFormatError,
+    read_model,
+    read_paint,
+    read_tpoint,
+    write_model,
+)
 from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .terms.heliostat import HELIOSTAT_DEFAULT
@@ -118,6 +130,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _number(x) -> float | None:
+    """A float for JSON, None (null) where it is not finite."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
 def _read_directions(path: str, columns: int) -> np.ndarray:
     """``(n, columns)`` numbers (degrees) from a text file, naming file and line on error."""
     text = sys.stdin.read() if path == "-" else Path(path).read_text()
@@ -135,6 +153,9 @@ def _read_directions(path: str, columns: int) -> np.ndarray:
             raise ValueError(f"{name}:{number}: not a number in {line.strip()!r}") from None
         if not all(np.isfinite(values)):
             raise ValueError(f"{name}:{number}: non-finite value in {line.strip()!r}")
+        elevations = values[1::2]
+        if any(abs(e) > 90.0 for e in elevations):
+            raise ValueError(f"{name}:{number}: elevation outside -90..90 deg in {line.strip()!r}")
         rows.append(values)
     if not rows:
         raise ValueError(f"{name}: no directions")
@@ -175,10 +196,14 @@ def _command_model(args):
     model = model.set(**_parse_params(args.params, model))
     if args.limits is None:
         return model, default_limits
-    values = [float(v) for v in args.limits.split(",")]
-    if len(values) != 4:
+    parts = [p.strip() for p in args.limits.split(",")]
+    if len(parts) != 4:
         raise ValueError(f"--limits: expected a1min,a1max,a2min,a2max in degrees, got {args.limits!r}")
-    lim = np.radians(values)
+    try:
+        # An empty field leaves that end of the axis open, e.g. "0,360,," limits axis 1 only.
+        lim = [np.radians(float(p)) if p else None for p in parts]
+    except ValueError:
+        raise ValueError(f"--limits: not a number in {args.limits!r} (degrees; leave a field empty for no limit)") from None
     return model, ((lim[0], lim[1]), (lim[2], lim[3]))
 
 
@@ -203,10 +228,10 @@ def _command_command(args) -> int:
         out = [
             {
                 "input_deg": [float(x) for x in row],
-                f"{names[0]}_deg": float(r[0]),
-                f"{names[1]}_deg": float(r[1]),
+                f"{names[0]}_deg": _number(r[0]),
+                f"{names[1]}_deg": _number(r[1]),
                 "ok": bool(k),
-                "residual_rad": float(res),
+                "residual_rad": _number(res),
                 "reason": why,
             }
             for row, r, k, res, why in zip(rows, reading, ok, residual, reasons)
@@ -222,6 +247,10 @@ def _command_command(args) -> int:
 
 
 def _fit_paint(args) -> int:
+    for option, value, default in (("--write-model", args.write_model, None), ("--form", args.form, "linear"),
+                                   ("--azimuth", args.azimuth, "N-E")):
+        if value != default:
+            raise ValueError(f"{option} applies to TPOINT runs, not to --format paint")
     run = read_paint(args.data, focal_spot=args.focal_spot)
     terms = args.terms if args.terms is not None else HELIOSTAT_DEFAULT
     fixed = [name.strip() for name in args.fix.split(",") if name.strip()]

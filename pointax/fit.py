@@ -41,7 +41,7 @@ from .observations import Observations
 from .rotations import tangent_offset
 from .units import ARCSEC, UNITS
 
-__all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma", "check_options"]
+__all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma", "check_options", "prepare"]
 
 SOLVERS = {
     "lm": ("Levenberg-Marquardt", optx.LevenbergMarquardt),
@@ -105,8 +105,9 @@ class FitResult(eqx.Module):
         degenerate: ``(M,)`` parameters lying in a (near-)null direction of the
             Jacobian: the data cannot separate them from the others flagged.
         outliers: ``(N,)`` observations a robust fit rejected (never for loss 'linear').
-        robust_scale: robust per-axis standard deviation (radians) outliers were judged
-            by (0 for loss 'linear').
+        robust_scale: robust per-axis standard deviation (radians) of the weighted
+            residuals ``sqrt(w) r`` (weights normalised to mean 1) that outliers were
+            judged by (0 for loss 'linear').
         robust_converged: whether the robust passes that chose the outliers met their
             tolerances (always True for loss 'linear'). ``converged`` is the final
             least-squares stage's; a robust pass that stopped at ``max_steps`` is
@@ -426,10 +427,17 @@ def _fit(
     outliers = jnp.zeros(given.shape, bool)
     scale = jnp.asarray(0.0)
     if rho is not None:
+        # Residuals are judged weighted (sqrt(w) r, the quantity the loss sees), so a
+        # down-weighted observation is not rejected for being imprecise.
+        sqrt_w = jnp.sqrt(weight)[:, None]
+
+        def weighted_sigma(m):
+            return robust_sigma(residuals(m, obs) * sqrt_w, given)
+
         # Two passes when the scale is automatic: the first starts from the scale of
         # the starting model's residuals (may be large), the second from the fit's.
         auto = loss_scale is None
-        scale = robust_sigma(residuals(model, obs), given)
+        scale = weighted_sigma(model)
         for _ in range(2 if auto else 1):
             # Soft margin c: two robust sigmas unless given.
             c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(loss_scale) ** 2, 1e-30)
@@ -437,9 +445,9 @@ def _fit(
             model = model.with_values(sol.value, "free")
             iterations = iterations + sol.stats["num_steps"]
             robust_ok = robust_ok & (sol.result == optx.RESULTS.successful)
-            scale = robust_sigma(residuals(model, obs), given)
-        r = residuals(model, obs)
-        outliers = given & (jnp.sqrt(jnp.sum(r**2, axis=-1)) > reject * scale)
+            scale = weighted_sigma(model)
+        rw = residuals(model, obs) * sqrt_w
+        outliers = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > reject * scale)
     used = given & ~outliers
     n_obs = jnp.sum(used)
     weight = _normalised(obs.weight, used)
@@ -522,7 +530,7 @@ def fit(
             ('cauchy' is the most forgiving of gross outliers).
         loss_scale: soft margin of the robust loss, radians (default: twice the robust
             standard deviation of the residuals, re-estimated after a first pass).
-        reject: with a robust loss, observations whose residual norm exceeds
+        reject: with a robust loss, observations whose weighted residual norm exceeds
             ``reject`` robust standard deviations are flagged as ``outliers`` and left
             out of the final least-squares fit that gives values and statistics.
 
@@ -531,6 +539,15 @@ def fit(
         ``result.converged`` (the report and ``warnings()`` say why).
     """
     check_options(solver, loss, loss_scale, reject)
+    model, obs = prepare(model, data, weights, fixed)
+    if caption is None:
+        caption = getattr(data, "caption", "") or ""
+    return _fit_jit(model, obs, solver, max_steps, rtol, atol, caption, loss, loss_scale, reject)
+
+
+def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tuple[Model, Observations]:
+    """Check and convert :func:`fit`'s inputs: observations (with ``weights``) in the
+    model's convention, ``fixed`` names held, float64 arrays ready for ``jit``."""
     obs = as_observations(data)
     _check_convention(model, obs)
     if weights is not None:
@@ -547,6 +564,4 @@ def fit(
     # Parameters as float64 arrays, so that jit traces them instead of baking them in.
     model = model.with_values(model.values())
     obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), obs)
-    if caption is None:
-        caption = getattr(data, "caption", "") or ""
-    return _fit_jit(model, obs, solver, max_steps, rtol, atol, caption, loss, loss_scale, reject)
+    return model, obs

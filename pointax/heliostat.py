@@ -64,7 +64,10 @@ class HeliostatCalibration:
 
     def rms(self, which: str, include_outliers: bool = False) -> float:
         """RMS of ``which`` ('before', 'after' or 'loo'), radians, over the unflagged
-        samples (or all of them)."""
+        samples (or all of them). "Unflagged" means kept by the fit of *all* samples;
+        each leave-one-out fit re-detects outliers without its own sample, so a
+        sample's leave-one-out error never depends on itself, but the choice of which
+        samples enter this RMS does."""
         errors = np.asarray(getattr(self, which))
         keep = np.ones(errors.shape, bool) if include_outliers else ~self.outliers
         return float(np.sqrt(np.mean(errors[keep] ** 2))) if keep.any() else math.nan

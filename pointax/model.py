@@ -8,14 +8,15 @@ from collections.abc import Iterable, Sequence
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
 from .mounts import AltAzMount, Mount, TurntableMount
 from .observations import Observations
 from .terms import turntable as turntable_terms
-from .terms.sun_vector import estimate_zeros
 from .terms.base import Term, param_fields, param_unit
+from .terms.sun_vector import estimate_zeros
 
 __all__ = ["Model", "ParameterInfo", "AltAz", "Turntable"]
 
@@ -279,7 +280,8 @@ def Turntable(
         terms = turntable_terms(terms)
     model = Model(TurntableMount(), terms, fixed)
     if start is not None:
-        alpha0, beta0 = estimate_zeros(start.encoder, start.target)
+        use = np.asarray(start.weight) > 0  # rows with weight 0 may hold NaN
+        alpha0, beta0 = estimate_zeros(np.asarray(start.encoder)[use], np.asarray(start.target)[use])
         names = set(model.parameter_names)
         zeros = {k: v for k, v in (("alpha0", alpha0), ("beta0", beta0)) if k in names}
         model = model.set(**zeros)

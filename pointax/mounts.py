@@ -19,9 +19,10 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
-from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_y, rot_z, wrap_pi
+from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, wrap_pi
 
 __all__ = ["Mount", "AltAzMount", "TurntableMount", "HeliostatMount", "AZIMUTH_CONVENTIONS", "nearest_solution"]
 
@@ -252,6 +253,12 @@ class HeliostatMount(Mount):
     @classmethod
     def from_paint(cls, heliostat) -> "HeliostatMount":
         """The nominal mount of a PAINT heliostat (:func:`pointax.io.read_heliostat`)."""
+        orientation = np.asarray(heliostat.initial_orientation, float)
+        if not np.allclose(orientation, [0.0, -1.0, 0.0], atol=1e-12):
+            raise ValueError(
+                f"{getattr(heliostat, 'path', 'heliostat')}: initial_orientation {orientation.tolist()} is not supported; "
+                "HeliostatMount models mirrors facing South at zero angles, (0, -1, 0)"
+            )
         acts = heliostat.actuators
 
         def field(name):

@@ -9,7 +9,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._x64 import float64
-from .fit import FitResult, _fit, as_observations, check_options, residuals
+from .fit import FitResult, _fit, check_options, prepare, residuals
 from .model import Model
 from .observations import Observations
 
@@ -69,6 +69,8 @@ def leave_one_out(
     data,
     *,
     solver: str = "lm",
+    weights=None,
+    fixed: tuple[str, ...] = (),
     max_steps: int = 256,
     rtol: float = 1e-10,
     atol: float = 1e-13,
@@ -90,11 +92,9 @@ def leave_one_out(
         :class:`LeaveOneOut` with each observation's out-of-sample error.
     """
     check_options(solver, loss, loss_scale, reject)
-    obs = as_observations(data)
+    model, obs = prepare(model, data, weights, fixed)
     if int(np.sum(np.asarray(obs.weight) > 0)) < 2:
         raise ValueError("leave-one-out needs at least two observations with positive weight")
-    model = model.with_values(model.values())
-    obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), obs)
     offsets, folds = _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
     # The offsets are gnomonic (tangent-plane) coordinates: their norm is tan(angle).
     errors = jnp.arctan(jnp.sqrt(jnp.sum(offsets**2, axis=-1)))

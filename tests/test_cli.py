@@ -12,8 +12,8 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import MMT_DAT, MMT_MOD
+
 from pointax.cli import main
 from pointax.io import read_model
 
@@ -169,3 +169,31 @@ def test_command_bad_params(tmp_path, capsys):
     assert "no parameter 'zeta0'" in capsys.readouterr().err
     assert main(["command", str(tmp_path / "missing.txt")]) == 2
     assert "missing.txt" in capsys.readouterr().err
+
+
+def test_command_json_writes_null_for_undefined_readings(tmp_path, capsys):
+    path = tmp_path / "pairs.txt"
+    path.write_text("90 30 270 -30\n")
+    assert main(["command", str(path), "--reflect", "--params", TURNTABLE_PARAMS, "--json"]) == 1
+    text = capsys.readouterr().out
+    assert "NaN" not in text
+    row = json.loads(text)[0]
+    assert row["alpha_deg"] is None and not row["ok"]
+
+
+def test_command_limits_and_elevation_errors(tmp_path, capsys):
+    path = tmp_path / "dirs.txt"
+    path.write_text("141 50\n")
+    assert main(["command", str(path), "--limits", "0,360,x,5"]) == 2
+    assert "--limits: not a number" in capsys.readouterr().err
+    # An open axis: only axis 1 limited.
+    assert main(["command", str(path), "--params", TURNTABLE_PARAMS, "--limits", "0,360,,", "--json"]) == 0
+    capsys.readouterr()
+    path.write_text("141 100\n")
+    assert main(["command", str(path)]) == 2
+    assert "dirs.txt:1: elevation outside -90..90" in capsys.readouterr().err
+
+
+def test_paint_rejects_tpoint_only_options(tmp_path, capsys):
+    assert main(["fit", str(tmp_path), "--format", "paint", "--write-model", "x.mod"]) == 2
+    assert "--write-model applies to TPOINT runs" in capsys.readouterr().err

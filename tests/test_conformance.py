@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import MMT_DAT, MMT_MOD
 
 import pointax as px
-from conftest import MMT_DAT, MMT_MOD
 
 ARCSEC = np.pi / 648000
 TERMS = "IA IE NPAE CA AN AW TF TX"

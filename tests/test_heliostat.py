@@ -379,3 +379,11 @@ def test_cli_paint_bad_directory(tmp_path, capsys, monkeypatch):
     assert code == 2
     assert str(missing) in captured.err
     assert captured.out == ""
+
+
+def test_from_paint_rejects_other_initial_orientations(aa39_run):
+    import dataclasses
+
+    other = dataclasses.replace(aa39_run.heliostat, initial_orientation=np.array([0.0, 0.0, 1.0]))
+    with pytest.raises(ValueError, match="initial_orientation"):
+        px.HeliostatMount.from_paint(other)

@@ -307,3 +307,28 @@ def test_bad_arguments(clean, kwargs, word):
 def test_leave_one_out_rejects_unknown_loss(clean):
     with pytest.raises(ValueError, match="loss"):
         px.leave_one_out(_model(), clean, loss="tukey")
+
+
+def test_down_weighted_observations_are_not_rejected_for_being_imprecise():
+    """Gaussian noise with two precisions and correct 1/sigma^2 weights: the robust fit
+    judges sqrt(w) r, so neither group is flagged (3-sigma tails aside)."""
+    grid = encoder_grid(12, (20, 35, 50, 65, 80))
+    truth = _model(TRUE)
+    noisy = np.arange(len(grid)) % 2 == 0  # every other observation is 5x noisier
+    precise = px.simulate(truth, grid, noise=1.0 * ARCSEC, seed=3)
+    rough = px.simulate(truth, grid, noise=5.0 * ARCSEC, seed=4)
+    target = np.where(noisy[:, None], np.asarray(rough.target), np.asarray(precise.target))
+    weight = np.where(noisy, 1 / 25.0, 1.0)
+    obs = px.Observations(grid, target, weight, precise.convention)
+    result = px.fit(_model(), obs, loss="cauchy")
+    assert bool(result.converged)
+    flagged = np.asarray(result.outliers)
+    assert flagged[noisy].sum() <= 1 and flagged[~noisy].sum() <= 1, result.outlier_indices()
+
+
+def test_leave_one_out_checks_the_convention_and_honours_fixed(clean):
+    wrong = px.Observations(clean.encoder[:12], clean.target[:12], convention="S-E")
+    with pytest.raises(ValueError, match="convention"):
+        px.leave_one_out(_model(), wrong)
+    loo = px.leave_one_out(_model(TRUE), clean[:12], fixed=("TX", "TF", "AW", "AN"))
+    assert loo.folds.values.shape == (12, 4)

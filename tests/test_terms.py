@@ -14,9 +14,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import EXAMPLES
 
 import pointax as px
-from conftest import EXAMPLES
 
 ARCSEC = np.pi / 648000
 ALL = list(px.terms.LINEAR_TERMS)

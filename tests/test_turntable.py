@@ -195,3 +195,15 @@ def test_start_sets_only_present_zeros(table1):
     assert model.parameter_names == ["mu0", "nu0"]
     model = px.Turntable("simple", start=table1)
     assert float(model.get("alpha0")) == pytest.approx(px.deg(60.43), abs=px.deg(0.01))
+
+
+def test_start_ignores_weight_zero_rows(table1):
+    encoder = np.array(table1.encoder)
+    target = np.array(table1.target)
+    encoder[0] = np.nan
+    weight = np.ones(len(encoder))
+    weight[0] = 0.0
+    obs = px.Observations(encoder, target, weight, convention="turntable")
+    model = px.Turntable("full", start=obs)
+    assert np.all(np.isfinite(np.asarray(model.values())))
+    assert bool(px.fit(model, obs).converged)

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from . import heliostat as heliostat_terms, rigorous, sun_vector
-from .heliostat import heliostat
+from . import heliostat as heliostat_terms
+from . import rigorous, sun_vector
 from .base import Term, param, param_fields, param_unit
+from .heliostat import heliostat
 from .tpoint import (
     ACEC,
     ACES,
