@@ -11,6 +11,7 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
 """
 
 from . import io, rotations, sky, terms, units
+from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
@@ -50,6 +51,7 @@ __all__ = [
     "command",
     "command_reflector",
     "fit",
+    "fit_batch",
     "heliostat_model",
     "leave_one_out",
     "io",
@@ -59,6 +61,9 @@ __all__ = [
     "residuals",
     "rotations",
     "simulate",
+    "site_result",
+    "site_statuses",
+    "stack_observations",
     "sky",
     "terms",
     "Turntable",
