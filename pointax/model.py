@@ -173,14 +173,14 @@ class Model(eqx.Module):
 
     # ----------------------------------------------------------------- evaluation
 
-    def _chain(self, hook: str, angles: Array) -> Array:
-        """Product of the terms' rotations at one place in the chain (identity if none)."""
-        rotation = jnp.eye(3, dtype=angles.dtype)
-        for term in self.terms:
+    def _apply(self, hook: str, angles: Array, v: Array) -> Array:
+        """``v`` turned by the product of the terms' rotations at one place in the
+        chain (in term order), as matrix-vector products."""
+        for term in reversed(self.terms):
             r = getattr(term, hook)(angles)
             if r is not None:
-                rotation = rotation @ r
-        return rotation
+                v = r @ v
+        return v
 
     def corrected_encoder(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
         """Axis angles after the terms' encoder corrections (one observation's raw
@@ -207,14 +207,12 @@ class Model(eqx.Module):
         encoder = jnp.asarray(encoder)
         angles = self.corrected_encoder(encoder)
         mount = self.mount
-        d = (
-            self._chain("base_rotation", angles)
-            @ mount.axis1(angles[0])
-            @ self._chain("axes_rotation", angles)
-            @ mount.axis2(angles[1])
-            @ self._chain("boresight_rotation", angles)
-            @ mount.boresight
-        )
+        # Rotate the boresight vector from the right: matrix-vector products only.
+        d = self._apply("boresight_rotation", angles, mount.boresight)
+        d = mount.axis2(angles[1]) @ d
+        d = self._apply("axes_rotation", angles, d)
+        d = mount.axis1(angles[0]) @ d
+        d = self._apply("base_rotation", angles, d)
         if self._sky_offset(angles) is None:
             return d
         chain_angles = mount.angles_of(d, near=angles)
