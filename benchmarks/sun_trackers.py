@@ -40,8 +40,7 @@ SITES = {"Juelich": (50.913, 6.388, 88.0), "Alice Springs": (-23.698, 133.881, 5
 
 
 def enu(az_deg, el_deg):
-    az, el = np.radians(az_deg), np.radians(el_deg)
-    return np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
+    return px.rotations.azel_to_enu_numpy(np.radians(az_deg), np.radians(el_deg))
 
 
 def angle(a, b):

@@ -124,7 +124,7 @@ def main(realisations: int = 4, seed: int = 0, verbose: bool = True) -> dict:
     # A satellite seen at a spread of directions while the mirror serves it.
     k = np.arange(len(sun_cmd))
     sat_az, sat_el = np.radians(150.0 + 120.0 * k / max(len(k) - 1, 1)), np.radians(55.0 + 20.0 * np.sin(k))
-    satellite = np.stack([np.sin(sat_az) * np.cos(sat_el), np.cos(sat_az) * np.cos(sat_el), np.sin(sat_el)], -1)
+    satellite = px.rotations.azel_to_enu_numpy(sat_az, sat_el)
 
     def run(sources: set[str]) -> tuple[float, float, px.FitResult]:
         normal_err, beam_err = [], []

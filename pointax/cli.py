@@ -65,6 +65,7 @@ from .io import (
 )
 from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
+from .rotations import azel_to_enu_numpy
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .units import UNITS
 
@@ -212,13 +213,11 @@ def _command_command(args) -> int:
     rows = _read_directions(args.directions, 4 if args.reflect else 2)
     rad = np.radians(rows)
 
-    def enu(az, el):
-        return np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
-
     if args.reflect:
-        cmd = command_reflector(model, enu(rad[:, 0], rad[:, 1]), enu(rad[:, 2], rad[:, 3]), limits=limits, solution=args.solution)
+        sun, target = azel_to_enu_numpy(rad[:, 0], rad[:, 1]), azel_to_enu_numpy(rad[:, 2], rad[:, 3])
+        cmd = command_reflector(model, sun, target, limits=limits, solution=args.solution)
     else:
-        cmd = command(model, enu(rad[:, 0], rad[:, 1]), limits=limits, solution=args.solution)
+        cmd = command(model, azel_to_enu_numpy(rad[:, 0], rad[:, 1]), limits=limits, solution=args.solution)
     reading = np.degrees(np.asarray(cmd.reading))
     ok = np.asarray(cmd.ok)
     residual = np.asarray(cmd.residual)

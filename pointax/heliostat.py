@@ -17,7 +17,6 @@ import os
 from collections.abc import Iterable
 from typing import Any
 
-import jax.numpy as jnp
 import numpy as np
 
 from ._x64 import float64
@@ -26,6 +25,7 @@ from .io.paint import PaintRun, read_paint
 from .model import Model
 from .mounts import HeliostatMount
 from .observations import Observations
+from .rotations import offset_angle
 from .terms.heliostat import HELIOSTAT_DEFAULT, heliostat
 from .validate import leave_one_out
 
@@ -136,8 +136,7 @@ class HeliostatCalibration:
 def _errors(model: Model, obs: Observations) -> np.ndarray:
     """Angle between observed and modelled direction of every observation, radians."""
     every = Observations(obs.encoder, obs.target, None, obs.convention)  # weights aside
-    r = residuals(model, every)  # gnomonic offsets: the norm is tan(angle)
-    return np.asarray(jnp.arctan(jnp.sqrt(jnp.sum(r**2, axis=-1))))
+    return np.asarray(offset_angle(residuals(model, every)))
 
 
 @float64

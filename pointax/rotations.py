@@ -11,7 +11,8 @@ Conventions (used everywhere in pointax):
   seen from the tip of the axis) *active* rotations: ``rot_z(t) @ v`` turns ``v`` by
   ``t`` about +z.
 
-Every function is pure ``jax.numpy``: it works under ``jit``, ``vmap`` and ``grad``,
+Every function but :func:`azel_to_enu_numpy` (its float64 NumPy twin for file readers
+and the astropy edge) is pure ``jax.numpy``: it works under ``jit``, ``vmap`` and ``grad``,
 broadcasts over leading batch dimensions where stated, and has finite gradients at the
 zenith and at the poles of the azimuth for valid inputs (the singular ``atan2`` and
 ``hypot`` are guarded with the "double where" idiom).
@@ -20,6 +21,7 @@ zenith and at the poles of the azimuth for valid inputs (the singular ``atan2`` 
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 __all__ = [
@@ -29,9 +31,11 @@ __all__ = [
     "rot_axis",
     "small_tilt",
     "azel_to_enu",
+    "azel_to_enu_numpy",
     "enu_to_azel",
     "tangent_basis",
     "tangent_offset",
+    "offset_angle",
     "offset_direction",
     "angle_between",
     "wrap_pi",
@@ -103,6 +107,13 @@ def azel_to_enu(az: ArrayLike, el: ArrayLike) -> Float[Array, "*batch 3"]:
     return jnp.stack([jnp.sin(az) * cos_el, jnp.cos(az) * cos_el, jnp.sin(el)], axis=-1)
 
 
+def azel_to_enu_numpy(az, el) -> np.ndarray:
+    """:func:`azel_to_enu` in NumPy float64, for code outside JAX (readers, astropy)."""
+    az, el = np.asarray(az, np.float64), np.asarray(el, np.float64)
+    cos_el = np.cos(el)
+    return np.stack([np.sin(az) * cos_el, np.cos(az) * cos_el, np.sin(el)], axis=-1)
+
+
 def _safe_hypot(x: Array, y: Array) -> Array:
     """hypot with a finite gradient at (0, 0) (there it is taken as zero)."""
     r2 = x * x + y * y
@@ -156,6 +167,13 @@ def tangent_offset(
     e_az, e_el = tangent_basis(ref)
     depth = jnp.sum(v * ref, axis=-1)
     return jnp.stack([jnp.sum(v * e_az, axis=-1), jnp.sum(v * e_el, axis=-1)], axis=-1) / depth[..., None]
+
+
+def offset_angle(offset: Float[ArrayLike, "*batch 2"]) -> Float[Array, "*batch"]:
+    """Angle (radians) between ``ref`` and the direction at gnomonic ``offset`` from it:
+    ``arctan(|offset|)``; the tangent-plane offset's norm is the tangent of the angle."""
+    offset = jnp.asarray(offset)
+    return jnp.arctan(jnp.sqrt(jnp.sum(offset**2, axis=-1)))
 
 
 def offset_direction(

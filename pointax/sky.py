@@ -57,6 +57,8 @@ from astropy.time import Time
 from astropy.utils import iers
 from astropy.utils.exceptions import AstropyWarning
 
+from .rotations import azel_to_enu_numpy
+
 __all__ = [
     "DEFAULT_TEMPERATURE_C",
     "DEFAULT_WAVELENGTH_UM",
@@ -184,8 +186,7 @@ def sun_direction(
     az, el = _sun_altaz(
         times, location, pressure_hpa, temperature_c, relative_humidity, wavelength_um
     )
-    cos_el = np.cos(el)
-    return np.stack([np.sin(az) * cos_el, np.cos(az) * cos_el, np.sin(el)], axis=-1)
+    return azel_to_enu_numpy(az, el)
 
 
 # --------------------------------------------------------------------------- refraction

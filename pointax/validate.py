@@ -12,6 +12,7 @@ from ._x64 import float64
 from .fit import FitResult, _fit, check_options, prepare, residuals
 from .model import Model
 from .observations import Observations
+from .rotations import offset_angle
 
 __all__ = ["leave_one_out", "LeaveOneOut"]
 
@@ -96,6 +97,5 @@ def leave_one_out(
     if int(np.sum(np.asarray(obs.weight) > 0)) < 2:
         raise ValueError("leave-one-out needs at least two observations with positive weight")
     offsets, folds = _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
-    # The offsets are gnomonic (tangent-plane) coordinates: their norm is tan(angle).
-    errors = jnp.arctan(jnp.sqrt(jnp.sum(offsets**2, axis=-1)))
+    errors = offset_angle(offsets)
     return LeaveOneOut(offsets=offsets, errors=errors, converged=folds.converged, folds=folds)

@@ -842,3 +842,21 @@ def test_mount_angles_of_at_zenith_keeps_encoder_azimuth():
     near = jnp.array([30.0, 89.0]) * DEG
     got = np.asarray(mount.angles_of(jnp.array([0.0, 0.0, 1.0]), near))
     np.testing.assert_allclose(got / DEG, [30.0, 90.0], atol=1e-9)
+
+
+def test_azel_to_enu_numpy_is_the_float64_twin():
+    rng = np.random.default_rng(11)
+    az, el = rng.uniform(-4, 4, (3, 7)), rng.uniform(-1.5, 1.5, (3, 7))
+    got = rot.azel_to_enu_numpy(az, el)
+    assert isinstance(got, np.ndarray) and got.dtype == np.float64 and got.shape == (3, 7, 3)
+    np.testing.assert_allclose(got, np_azel_to_enu(az, el), rtol=0, atol=1e-15)
+
+
+def test_offset_angle_is_the_angle_to_the_offset_direction():
+    rng = np.random.default_rng(12)
+    ref = np_azel_to_enu(rng.uniform(0, 6, 50), rng.uniform(-1.4, 1.4, 50))
+    off = rng.normal(0, 0.3, (50, 2))
+    moved = np_inverse_gnomonic(ref, off)
+    # Independent: the great-circle angle by atan2(|a x b|, a . b).
+    want = np.arctan2(np.linalg.norm(np.cross(ref, moved), axis=-1), np.sum(ref * moved, axis=-1))
+    np.testing.assert_allclose(np.asarray(rot.offset_angle(off)), want, rtol=0, atol=1e-13)

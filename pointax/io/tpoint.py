@@ -42,6 +42,7 @@ import numpy as np
 
 from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
+from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
 
 __all__ = [
@@ -271,7 +272,7 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
     observed, encoder = data[:, :2], data[:, 2:]
     frame = np.asarray(AZIMUTH_CONVENTIONS[azimuth])
     az, el = observed[:, 0], observed[:, 1]
-    in_mount_frame = np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
+    in_mount_frame = azel_to_enu_numpy(az, el)
     target = in_mount_frame @ frame.T
     return TpointRun(
         path=path,
