@@ -1,0 +1,140 @@
+"""Small least-squares systems through the normal equations, written out entry by entry.
+
+A pointing fit's linear systems are tall and thin: ``2 n`` residuals, a handful of
+parameters. Under ``jax.vmap`` over thousands of sites, LAPACK's QR or Cholesky is one
+library call per site; written out as elementwise arithmetic on ``(sites,)`` arrays the
+same factorisation runs vectorised across sites (the cost is measured in
+``benchmarks/batch_fit_notes.md``). :class:`NormalCholesky` is that solver for
+optimistix / lineax; :func:`cholesky` and :func:`inverse` serve the statistics.
+
+The normal equations square the condition number: fine in float64 for pointing models
+(their worst correlations, ~0.997, cost about 3 of 16 digits), not for near-degenerate
+ones, which the callers detect from the pivots (:func:`cholesky` returns them) and hand
+to an SVD.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import lineax as lx
+from jaxtyping import Array, Float
+
+__all__ = ["NormalCholesky", "columns", "inner", "normal_matrix", "cholesky", "solve", "inverse", "MAX_UNROLLED"]
+
+MAX_UNROLLED = 16
+"""Systems with more unknowns than this use ``jnp.linalg`` (the unrolled code grows as
+the cube of the size, and with it the compilation time)."""
+
+
+def inner(a, b) -> Array:
+    """Sum of the products of two pytrees of arrays of equal structure."""
+    return sum(jnp.sum(x * y) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)))
+
+
+def normal_matrix(columns: list) -> list[list[Array]]:
+    """``A = J^T J`` as nested lists of scalars, from J's columns (each a pytree of arrays)."""
+    m = len(columns)
+    a = [[None] * m for _ in range(m)]
+    for i in range(m):
+        for j in range(i + 1):
+            a[i][j] = a[j][i] = inner(columns[i], columns[j])
+    return a
+
+
+def cholesky(a: list[list[Array]]) -> tuple[list[list[Array]], Float[Array, " m"]]:
+    """Lower Cholesky factor ``L`` (nested lists) of a symmetric positive definite ``a``,
+    and the relative pivots ``L_jj^2 / a_jj`` (near 0 or NaN: ``a`` is near-singular)."""
+    m = len(a)
+    low = [[0.0] * m for _ in range(m)]
+    pivots = []
+    for j in range(m):
+        s = a[j][j]
+        for k in range(j):
+            s = s - low[j][k] ** 2
+        pivots.append(s / a[j][j])
+        d = jnp.sqrt(s)
+        low[j][j] = d
+        for i in range(j + 1, m):
+            t = a[i][j]
+            for k in range(j):
+                t = t - low[i][k] * low[j][k]
+            low[i][j] = t / d
+    return low, jnp.stack(pivots) if pivots else jnp.zeros((0,))
+
+
+def solve(low: list[list[Array]], b: list[Array]) -> Float[Array, " m"]:
+    """Solve ``L L^T x = b`` by forward and back substitution."""
+    m = len(low)
+    z = [None] * m
+    for i in range(m):
+        t = b[i]
+        for k in range(i):
+            t = t - low[i][k] * z[k]
+        z[i] = t / low[i][i]
+    x = [None] * m
+    for i in reversed(range(m)):
+        t = z[i]
+        for k in range(i + 1, m):
+            t = t - low[k][i] * x[k]
+        x[i] = t / low[i][i]
+    return jnp.stack(x) if x else jnp.zeros((0,))
+
+
+def inverse(low: list[list[Array]]) -> Float[Array, "m m"]:
+    """``(L L^T)^-1`` from the Cholesky factor."""
+    m = len(low)
+    cols = []
+    for j in range(m):
+        e = [jnp.asarray(1.0 if i == j else 0.0) for i in range(m)]
+        cols.append(solve(low, e))
+    return jnp.stack(cols, axis=-1) if cols else jnp.zeros((0, 0))
+
+
+def columns(operator: lx.AbstractLinearOperator) -> list:
+    """The operator's columns, each a pytree like its output (one product per unknown)."""
+    structure = operator.in_structure()
+    return [operator.mv(jnp.zeros(structure.shape, structure.dtype).at[k].set(1.0)) for k in range(structure.shape[0])]
+
+
+def _flat(tree) -> Array:
+    return jnp.concatenate([jnp.ravel(leaf) for leaf in jax.tree.leaves(tree)])
+
+
+class NormalCholesky(lx.AbstractLinearSolver):
+    """Least-squares solution of a tall full-rank ``J x = r`` from ``J^T J x = J^T r``, with
+    the Cholesky factorisation written out (vectorises under ``vmap``; see the module
+    docstring). Unknowns: a flat array; residuals: any pytree of arrays. A rank-deficient
+    ``J`` gives NaN or inf, never an error: the caller checks."""
+
+    def init(self, operator: lx.AbstractLinearOperator, options: dict[str, Any]):
+        del options
+        if jax.tree.structure(operator.in_structure()).num_leaves != 1 or len(operator.in_structure().shape) != 1:
+            raise ValueError("NormalCholesky needs a flat vector of unknowns")
+        cols = columns(operator)
+        if len(cols) > MAX_UNROLLED:
+            j = jnp.stack([_flat(c) for c in cols], axis=-1)
+            return cols, jnp.linalg.cholesky(j.T @ j)
+        low, _ = cholesky(normal_matrix(cols))
+        return cols, low
+
+    def compute(self, state, vector, options: dict[str, Any]):
+        del options
+        cols, low = state
+        if isinstance(low, list):
+            x = solve(low, [inner(c, vector) for c in cols])
+        else:
+            b = jnp.stack([inner(c, vector) for c in cols])
+            x = jax.scipy.linalg.cho_solve((low, True), b)
+        return x, lx.RESULTS.successful, {}
+
+    def transpose(self, state, options: dict[str, Any]):
+        raise NotImplementedError("NormalCholesky solves least-squares systems only (no transpose)")
+
+    def conj(self, state, options: dict[str, Any]):
+        return state, options
+
+    def assume_full_rank(self):
+        return True

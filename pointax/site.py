@@ -1,0 +1,376 @@
+"""A model evaluated over all of one site's observations at once, arranged for speed.
+
+:meth:`pointax.Model.mount_direction` evaluates one observation at a time, which is
+the clearest way to write a model and what ``jax.vmap`` turns into array code. Batched
+fits of thousands of sites evaluate the same model millions of times, and there the
+arrangement matters more than the arithmetic (measured in ``benchmarks/batch_fit_notes.md``):
+
+* **What the data fix is computed once** (:func:`site_data`): the nominal axis angles,
+  their sines and cosines, the targets in the mount frame and their tangent-plane
+  basis. An axis rotation by ``nominal + offset`` is evaluated by angle addition,
+  ``sin(n + o) = sin n cos o + cos n sin o``, so a fit never takes the sine of an
+  observation: only of the (per-site) offsets.
+* **Structure of arrays**: vectors are three ``(n,)`` arrays, not ``(n, 3)``; rotations
+  that do not depend on the observation (tilts, zero points, collimation, ...) are
+  multiplied together once per site and applied as one matrix.
+* **Jacobian columns one parameter at a time** (:func:`residual_columns`): a forward
+  derivative with respect to one parameter skips every stage of the chain before
+  that parameter enters (JAX's symbolic zeros), about 3x cheaper than ``jax.jacfwd``
+  over all parameters at once.
+
+Nothing here knows any particular term: the terms' hooks are called exactly as
+:meth:`pointax.Model.mount_direction` calls them (through ``jax.vmap`` over the
+observations; a hook whose result does not depend on the observation is evaluated
+once), and :func:`site_residuals` equals :func:`pointax.residuals` times the square
+root of the normalised weights (checked to 1e-15 rad in ``tests/test_site.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.custom_derivatives import SymbolicZero
+from jaxtyping import Array, Bool, Float
+
+from .model import Model, ParameterInfo
+from .observations import Observations
+from .rotations import enu_to_azel
+
+__all__ = ["SiteData", "site_data", "site_residuals", "residual_columns", "residual_function"]
+
+_HOOKS = ("boresight_rotation", "axes_rotation", "base_rotation")
+
+
+class SiteData(eqx.Module):
+    """What one site's observations fix, computed once per fit (a pytree; batch it).
+
+    Attributes:
+        nominal: ``(n, 2)`` nominal axis angles (:meth:`pointax.Mount.axis_angles`).
+        trig: four ``(n,)`` arrays: cos and sin of the nominal axis-1 angle, cos and sin of axis 2.
+        target_trig: four ``(n,)`` arrays: cos and sin of the observed directions' azimuth, cos and
+            sin of their elevation, in the mount frame (the direction and its
+            tangent-plane basis, :func:`pointax.rotations.tangent_basis`, follow).
+        sqrt_weight: ``(n,)`` square roots of the weights normalised to mean 1 over the
+            used observations (0 for unused ones).
+        used: ``(n,)`` observations with positive weight.
+    """
+
+    nominal: Float[Array, "n 2"]
+    trig: tuple[Float[Array, " n"], ...]
+    target_trig: tuple[Float[Array, " n"], ...]
+    sqrt_weight: Float[Array, " n"]
+    used: Bool[Array, " n"]
+
+
+def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = None) -> SiteData:
+    """Precompute one site's :class:`SiteData` (pure JAX; ``vmap`` over sites).
+
+    Args:
+        model: the model (only its mount is used).
+        obs: the site's observations, ``(n, ...)``. Rows with weight 0 may hold NaN.
+        used: which observations to fit (default: weight > 0); the weights are
+            normalised to mean 1 over these.
+    """
+    mount = model.mount
+    used = obs.weight > 0 if used is None else used & (obs.weight > 0)
+    reading = jnp.where(used[:, None], obs.encoder, 0.0)
+    nominal = jax.vmap(mount.axis_angles)(reading)
+    target = jnp.where(used[:, None], jnp.asarray(obs.target) @ mount.frame, mount.boresight)
+    az, el = enu_to_azel(target)  # as tangent_basis takes them
+    weight = jnp.where(used, obs.weight, 0.0)
+    weight = weight * jnp.sum(used) / jnp.sum(weight)
+    # Separate arrays, not one (4, n) array: slices of a stacked array cost copies.
+    trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
+    target_trig = (jnp.cos(az), jnp.sin(az), jnp.cos(el), jnp.sin(el))
+    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used)
+
+
+# ------------------------------------------------------------------ 3x3 algebra on entries
+# A matrix is a 3x3 nested list of entries; an entry is a Python float (a constant known
+# when tracing: zeros and ones are skipped), a scalar array (the same for every
+# observation of the site) or an (n,) array. A vector is a list of three such entries.
+
+
+def _is_const(x, value: float) -> bool:
+    return isinstance(x, float) and x == value
+
+
+def _mul(a, b):
+    if _is_const(a, 0.0) or _is_const(b, 0.0):
+        return 0.0
+    if _is_const(a, 1.0):
+        return b
+    if _is_const(b, 1.0):
+        return a
+    return a * b
+
+
+def _add(a, b):
+    if _is_const(a, 0.0):
+        return b
+    if _is_const(b, 0.0):
+        return a
+    return a + b
+
+
+def _dot(row, v):
+    out = 0.0
+    for a, b in zip(row, v):
+        out = _add(out, _mul(a, b))
+    return out
+
+
+def _turn(matrix, v):
+    return [_dot(row, v) for row in matrix]
+
+
+def _matmul(a, b):
+    return [[_dot(a[i], [b[k][j] for k in range(3)]) for j in range(3)] for i in range(3)]
+
+
+def _entries(matrix: Array) -> list:
+    """A traced ``(..., 3, 3)`` matrix as entries ``matrix[..., i, j]``."""
+    return [[matrix[..., i, j] for j in range(3)] for i in range(3)]
+
+
+def _axis_form(axis_fn) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Constant matrices ``(alpha, beta, gamma)`` with ``axis_fn(t) = alpha + beta sin t +
+    gamma cos t`` for every angle ``t`` (true of any rotation about a fixed axis, with any
+    fixed rotation before or after it), or None if ``axis_fn`` is not of that form or
+    cannot be evaluated while tracing (e.g. it depends on traced mount fields)."""
+    try:
+        with jax.ensure_compile_time_eval():
+
+            def at(t):
+                return np.asarray(axis_fn(jnp.asarray(t, jnp.float64)), np.float64)
+
+            r0, r90, r180 = at(0.0), at(math.pi / 2), at(math.pi)
+            checks = [(t, at(t)) for t in (0.7, 2.3, -1.9)]
+    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
+        return None
+    alpha, gamma = (r0 + r180) / 2, (r0 - r180) / 2
+    beta = r90 - alpha
+    alpha, beta, gamma = (np.where(np.abs(m) < 1e-14, 0.0, m) for m in (alpha, beta, gamma))
+    for t, r in checks:
+        if not np.allclose(alpha + beta * np.sin(t) + gamma * np.cos(t), r, rtol=0, atol=1e-13):
+            return None
+    return alpha, beta, gamma
+
+
+def _nominal_entries(form, cos_n, sin_n):
+    """Entries of ``axis(n)`` from the nominal angle's cos and sin (data only)."""
+    alpha, beta, gamma = form
+    return [
+        [_add(float(alpha[i, j]), _add(_mul(sin_n, float(beta[i, j])), _mul(cos_n, float(gamma[i, j])))) for j in range(3)]
+        for i in range(3)
+    ]
+
+
+def _per_observation(fn, angles):
+    """``(jax.vmap(fn)(angles), True)``, or ``(fn's result, False)`` evaluated once when it
+    does not depend on the observation."""
+    try:
+        return jax.vmap(fn, out_axes=None)(angles), False
+    except ValueError:
+        return jax.vmap(fn)(angles), True
+
+
+def _hook_matrices(model: Model, hook: str, angles) -> list:
+    """The terms' rotations at one place in the chain, in term order: ``(entries, per_observation)``."""
+    out = []
+    for term in model.terms:
+        r, batched = _per_observation(getattr(term, hook), angles)
+        if r is not None:
+            out.append((_entries(r), batched))
+    return out
+
+
+def _encoder_offset(model: Model, nominal):
+    """Total encoder offset per axis, ``[(offset or None, per_observation), ...]``."""
+    total = [None, None]
+    batched = [False, False]
+    for term in model.terms:
+        off, b = _per_observation(term.encoder_offset, nominal)
+        if off is None:
+            continue
+        for k in range(2):
+            total[k] = off[..., k] if total[k] is None else total[k] + off[..., k]
+            batched[k] = batched[k] or b
+    return list(zip(total, batched))
+
+
+def _axis_matrices(axis_fn, cos_n, sin_n, nominal, offset) -> list:
+    """``axis(nominal + offset)`` in chain order. For a fixed-axis rotation
+    ``axis(n + o) = axis(n) . axis(0)^T . axis(o)``: the first factor comes from the
+    data's cos and sin, the second is per site unless the offset varies by observation."""
+    form = _axis_form(axis_fn)
+    value, batched = offset
+    if form is None:  # not a fixed-axis rotation: the whole matrix per observation
+        angle = nominal if value is None else nominal + value
+        return [(_entries(jax.vmap(axis_fn)(angle)), True)]
+    out = [(_nominal_entries(form, cos_n, sin_n), True)]
+    if value is not None:
+        zero_t = (form[0] + form[2]).T  # axis(0)^T
+        turn = jax.vmap(axis_fn)(value) if batched else axis_fn(value)
+        out.append((_entries(jnp.asarray(zero_t) @ turn if not np.allclose(zero_t, np.eye(3)) else turn), batched))
+    return out
+
+
+def _apply_chain(matrices, v):
+    """Apply ``M_1 . M_2 ... M_k`` to ``v``: neighbouring per-site matrices are multiplied
+    together once per site, so each observation sees one matrix per run of them."""
+    pending = None
+    for entries, batched in reversed(matrices):
+        if not batched:
+            pending = entries if pending is None else _matmul(entries, pending)
+            continue
+        if pending is not None:
+            v, pending = _turn(pending, v), None
+        v = _turn(entries, v)
+    return v if pending is None else _turn(pending, v)
+
+
+def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
+    """Pointing directions in the mount frame, as three ``(n,)`` arrays (x, y, z);
+    the same as ``jax.vmap(model.mount_direction)`` over the site's readings."""
+    mount = model.mount
+    nominal = data.nominal
+    offset = _encoder_offset(model, nominal)
+    angles = nominal
+    for k in range(2):
+        if offset[k][0] is not None:
+            angles = angles.at[:, k].add(offset[k][0])
+    cos1, sin1, cos2, sin2 = data.trig
+    hooks = {h: _hook_matrices(model, h, angles) for h in _HOOKS}
+    chain = (
+        hooks["base_rotation"]
+        + _axis_matrices(mount.axis1, cos1, sin1, nominal[:, 0], offset[0])
+        + hooks["axes_rotation"]
+        + _axis_matrices(mount.axis2, cos2, sin2, nominal[:, 1], offset[1])
+        + hooks["boresight_rotation"]
+    )
+    v = _boresight(mount)
+    v = _apply_chain(chain, v)
+    n = nominal.shape[0]
+    v = [jnp.broadcast_to(jnp.asarray(x, nominal.dtype), (n,)) for x in v]
+    has_sky = any(_per_observation(t.sky_offset, angles)[0] is not None for t in model.terms)
+    if not has_sky:
+        return v
+    # Pointing offsets at the sky position (TPOINT's linear form): per observation.
+    if any(hooks.values()):
+        chain_angles = jax.vmap(mount.angles_of)(jnp.stack(v, axis=-1), angles)
+    else:
+        chain_angles = angles  # no rotation term in the chain: its direction's angles are these
+    sky = chain_angles
+    for _ in range(model.sky_iterations):
+        sky = chain_angles + jax.vmap(model._sky_offset)(sky)
+    d = jax.vmap(mount.direction)(sky)
+    return [d[:, 0], d[:, 1], d[:, 2]]
+
+
+def _boresight(mount) -> list:
+    """The mount's boresight as three entries: Python floats when it is a constant (so
+    that its zeros are skipped), else traced scalars."""
+    try:
+        with jax.ensure_compile_time_eval():
+            return [float(x) for x in np.asarray(mount.boresight, np.float64)]
+    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
+        return list(mount.boresight)
+
+
+def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple[Array, Array]:
+    """Observed minus model in the tangent plane, ``(cross-elevation, elevation)`` as two
+    ``(n,)`` arrays (radians), times the square roots of the normalised weights unless
+    ``weighted=False``; 0 for unused observations."""
+    x, y, z = site_pointing(model, data)
+    ca, sa, ce, se = data.target_trig
+    # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
+    horizontal = x * sa + y * ca
+    # Unused rows (weight 0) hold a placeholder target the model may point far from.
+    inv_depth = 1.0 / jnp.where(data.used, ce * horizontal + se * z, 1.0)
+    rx = (y * sa - x * ca) * inv_depth
+    ry = (se * horizontal - ce * z) * inv_depth
+    if weighted:  # unused rows have weight 0
+        return rx * data.sqrt_weight, ry * data.sqrt_weight
+    return jnp.where(data.used, rx, 0.0), jnp.where(data.used, ry, 0.0)
+
+
+def _values(y, n: int) -> list:
+    return [y[k] for k in range(n)]
+
+
+def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]) -> list[tuple[Array, Array]]:
+    """Columns of the Jacobian of :func:`site_residuals` (weighted) with respect to
+    ``params``: one forward derivative per parameter, ``[(d rx/d p, d ry/d p), ...]``."""
+    cols = []
+    for p in params:
+        value = getattr(model.terms[p.term], p.field)
+
+        def one(x, p=p):
+            return site_residuals(model._replace([p], [x]), data)
+
+        cols.append(jax.jvp(one, (value,), (jnp.ones_like(value),))[1])
+    return cols
+
+
+def residual_function(params: Sequence[ParameterInfo]):
+    """``f(y, (model, data)) -> (rx, ry)``: the weighted residuals with the parameters
+    ``params`` set to the vector ``y``, for optimistix. Its derivative with respect to
+    ``y`` comes from :func:`residual_columns` (a ``jax.custom_jvp``), so linearising it
+    keeps only the Jacobian's columns; derivatives with respect to the model's other
+    leaves and the data are ordinary forward derivatives."""
+    params = tuple(params)
+    n = len(params)
+
+    @jax.custom_jvp
+    def fn(y, model, data):
+        return site_residuals(model._replace(params, _values(y, n)), data)
+
+    def fn_jvp(primals, tangents):
+        y, model, data = primals
+        ty, t_model, t_data = tangents
+        ys = _values(y, n)
+        fitted = model._replace(params, ys)
+        out = site_residuals(fitted, data)
+        t_out = (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
+        if not isinstance(ty, SymbolicZero):
+            for k, (cx, cy) in enumerate(residual_columns(fitted, data, params)):
+                t_out = (t_out[0] + ty[k] * cx, t_out[1] + ty[k] * cy)
+        extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m._replace(params, ys), d))
+        if extra is not None:
+            t_out = (t_out[0] + extra[0], t_out[1] + extra[1])
+        return out, t_out
+
+    fn.defjvp(fn_jvp, symbolic_zeros=True)
+
+    def residuals_of(y, args):
+        model, data = args
+        return fn(y, model, data)
+
+    return residuals_of
+
+
+def _other_tangents(model, data, t_model, t_data, f):
+    """Forward derivative of ``f(model, data)`` along the tangents of the model's and the
+    data's floating-point leaves (None when they are all symbolic zeros)."""
+    is_zero = lambda t: isinstance(t, SymbolicZero)  # noqa: E731
+    flat_p, treedef = jax.tree.flatten((model, data))
+    flat_t = jax.tree.leaves((t_model, t_data), is_leaf=is_zero)
+    index = [i for i, p in enumerate(flat_p) if jnp.issubdtype(jnp.result_type(p), jnp.inexact)]
+    if all(is_zero(flat_t[i]) for i in index):
+        return None
+
+    def g(*xs):
+        leaves = list(flat_p)
+        for i, x in zip(index, xs):
+            leaves[i] = x
+        return f(*jax.tree.unflatten(treedef, leaves))
+
+    primal = [flat_p[i] for i in index]
+    tangent = [jnp.zeros_like(flat_p[i]) if is_zero(flat_t[i]) else flat_t[i] for i in index]
+    return jax.jvp(g, primal, tangent)[1]

@@ -1,0 +1,109 @@
+"""The structured evaluation of a site (pointax.site) and the small normal-equation
+solver: references are the plain per-observation model (pointax.residuals), jax.jacfwd
+of it, finite differences, and numpy's least squares."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import pointax as px
+from pointax import normal_equations as ne
+from pointax.simulate import encoder_grid
+from pointax.site import residual_columns, residual_function, site_data, site_residuals
+
+RNG = np.random.default_rng(7)
+TPOINT8 = "IA IE NPAE CA AN AW TF TX"
+
+
+def _weights(n):
+    w = RNG.uniform(0.5, 2.0, n)
+    w[3] = 0.0  # an unused row
+    return w
+
+
+def _cases():
+    values = {n: px.arcsec(v) for n, v in zip(TPOINT8.split(), RNG.normal(0, 40, 8))}
+    tt = px.Turntable("full").set(mu0=px.deg(0.07), nu0=px.deg(0.01), omega0=px.deg(-0.09), alpha0=px.deg(60.5), beta0=px.deg(165.9))
+    enc = np.stack([RNG.uniform(0, 2 * np.pi, 40), px.deg(165.9) + RNG.uniform(0.2, 1.2, 40)], axis=1)
+    linear = px.AltAz(px.terms.tpoint(TPOINT8, values=values), azimuth="S-E")
+    rigorous = px.AltAz(px.terms.tpoint(TPOINT8, form="rigorous", values=values))
+    harmonic = px.AltAz(px.terms.tpoint("IA IE HACA2 HESE1", values={"HACA2": px.arcsec(20), "IA": px.arcsec(5)}))
+    xy = px.XY("basic")
+    xy = xy.with_values(np.asarray(RNG.normal(0, px.arcsec(30), len(xy.parameters))))
+    xy_enc = np.stack([RNG.uniform(-1.0, 1.0, 40), RNG.uniform(-0.9, 0.9, 40)], axis=1)
+    return {
+        "turntable": (tt, enc),
+        "altaz linear (sky offsets)": (linear, encoder_grid()),
+        "altaz rigorous": (rigorous, encoder_grid()),
+        "altaz harmonic": (harmonic, encoder_grid()),
+        "xy basic": (xy, xy_enc),
+    }
+
+
+CASES = _cases()
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_site_residuals_and_columns_equal_the_plain_model(name):
+    truth, enc = CASES[name]
+    obs = px.simulate(truth, enc, noise=px.arcsec(2), seed=1)
+    obs = px.Observations(obs.encoder, obs.target, _weights(len(obs)), obs.convention)
+    start = truth.with_values(np.asarray(truth.values()) * 0.9)
+    model = start.with_values(start.values())
+    with jax.enable_x64(True):
+        w = np.asarray(obs.weight)
+        sqrt_w = np.sqrt(w * np.sum(w > 0) / np.sum(w))[:, None]
+        data = site_data(model, obs)
+        rx, ry = jax.jit(site_residuals)(model, data)
+        reference = np.asarray(px.residuals(model, obs)) * sqrt_w
+        assert np.max(np.abs(np.stack([rx, ry], -1) - reference)) < 1e-14
+        params = model.free_parameters
+        cols = jax.jit(lambda m, d: residual_columns(m, d, params))(model, data)
+        jac = jax.jacfwd(lambda y: px.residuals(model.with_values(y, "free"), obs) * sqrt_w)(model.values("free"))
+        got = np.stack([np.stack(c, -1) for c in cols], -1)
+        assert np.max(np.abs(got - np.asarray(jac))) < 1e-13 * max(1.0, np.max(np.abs(jac)))
+
+
+def test_residual_function_derivative_with_respect_to_the_data():
+    """The custom derivative also carries derivatives with respect to the data (targets):
+    checked against central finite differences."""
+    truth, enc = CASES["turntable"]
+    obs = px.simulate(truth, enc, noise=px.arcsec(5), seed=2)
+    model = truth.with_values(truth.values())
+    params = model.free_parameters
+    fn = residual_function(params)
+    with jax.enable_x64(True):
+        y = model.values("free")
+
+        def f(t):
+            o = px.Observations(obs.encoder, t, obs.weight, obs.convention)
+            return jnp.sum(fn(y, (model, site_data(model, o)))[0] ** 2)
+
+        target = jnp.asarray(obs.target)
+        direction = jnp.asarray(RNG.normal(size=target.shape)) * 1e-3
+        ad = jax.jvp(f, (target,), (direction,))[1]
+        h = 1e-5
+        fd = (f(target + h * direction) - f(target - h * direction)) / (2 * h)
+        assert abs(float(ad) - float(fd)) < 1e-8 * max(1.0, abs(float(fd)))
+        g = jax.grad(f)(target)  # reverse mode through the custom derivative
+        assert float(jnp.sum(g * direction)) == pytest.approx(float(ad), rel=1e-9, abs=1e-15)
+
+
+def test_normal_cholesky_matches_numpy_least_squares():
+    import lineax as lx
+
+    a = RNG.normal(size=(30, 6))
+    a[:, 5] = a[:, 4] + 0.01 * a[:, 5]  # correlated columns, still full rank
+    b = RNG.normal(size=30)
+    with jax.enable_x64(True):
+        op = lx.MatrixLinearOperator(jnp.asarray(a))
+        x = lx.linear_solve(op, jnp.asarray(b), ne.NormalCholesky()).value
+        low, pivots = ne.cholesky(ne.normal_matrix([jnp.asarray(a[:, k]) for k in range(6)]))
+        inv = ne.inverse(low)
+    ref = np.linalg.lstsq(a, b, rcond=None)[0]
+    assert np.max(np.abs(np.asarray(x) - ref)) < 1e-10
+    assert np.max(np.abs(np.asarray(inv) - np.linalg.inv(a.T @ a))) < 1e-8 * np.max(np.abs(np.linalg.inv(a.T @ a)))
+    assert np.all(np.asarray(pivots) > 0) and np.min(np.asarray(pivots)) < 1e-3  # the correlated column shows
