@@ -10,7 +10,7 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     print(px.fit(model, run).report())
 """
 
-from . import io, rotations, sky, terms, units
+from . import io, rotations, sky, stars, terms, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
@@ -65,6 +65,7 @@ __all__ = [
     "site_statuses",
     "stack_observations",
     "sky",
+    "stars",
     "terms",
     "Turntable",
     "TurntableMount",
