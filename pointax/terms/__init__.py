@@ -7,6 +7,8 @@
 * :mod:`pointax.terms.gpoint`: RTS2 gpoint's alt-az terms (ia ie tn te npae npoa tf)
   and its "extra" terms (``az:sincos:az;el:2;2``).
 * :mod:`pointax.terms.sun_vector`: the sun-vector turntable model's five parameters.
+* :mod:`pointax.terms.xy`: the level-mount (X-Y) paper's families: spherical-harmonic,
+  basic, rotation-matrix (rigorous) and its linearised expansion.
 * :mod:`pointax.terms.heliostat`: axis tilts and joint zeros of a tilt-tilt heliostat.
 * :class:`Term`, :func:`param`: the base class and field helper for new terms.
 
@@ -21,7 +23,7 @@ from collections.abc import Iterable
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
-from . import rigorous, sun_vector
+from . import rigorous, sun_vector, xy
 from .base import Term, param, param_fields, param_unit
 from .gpoint import GPOINT_ALTAZ_TERMS, GpointExtra, GpointTerm, gpoint_extra
 from .harmonic import (
@@ -81,6 +83,7 @@ __all__ = [
     "sun_vector",
     "heliostat",
     "heliostat_terms",
+    "xy",
     "Harmonic",
     "RigorousHarmonic",
     "harmonic_term",
