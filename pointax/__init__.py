@@ -10,18 +10,22 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     print(px.fit(model, run).report())
 """
 
-from . import io, rotations, sky, terms, units
+from . import io, rotations, sky, stars, terms, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .model import AltAz, Model, ParameterInfo, Turntable
+from .mount_models import XY, XY_FAMILIES, Equatorial, xy_family
 from .mounts import (
     AZIMUTH_CONVENTIONS,
     AltAzMount,
+    EquatorialMount,
     HeliostatMount,
     Mount,
+    SphericalMount,
     TurntableMount,
+    XYMount,
 )
 from .observations import Observations
 from .simulate import simulate
@@ -36,6 +40,8 @@ __all__ = [
     "AltAzMount",
     "AZIMUTH_CONVENTIONS",
     "Command",
+    "Equatorial",
+    "EquatorialMount",
     "FitResult",
     "HeliostatCalibration",
     "HeliostatMount",
@@ -61,12 +67,18 @@ __all__ = [
     "residuals",
     "rotations",
     "simulate",
+    "SphericalMount",
     "site_result",
     "site_statuses",
     "stack_observations",
     "sky",
+    "stars",
     "terms",
     "Turntable",
     "TurntableMount",
     "units",
+    "XY",
+    "XY_FAMILIES",
+    "XYMount",
+    "xy_family",
 ]

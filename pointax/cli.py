@@ -2,6 +2,7 @@
 
     pointax fit DATA [--terms IA,IE,...] [--form linear|rigorous] [--json]
     pointax fit DIR --format paint [--terms t1n,t1u,t2e,t2n] [--loss cauchy] [--json]
+    pointax fit FILE --format gpoint [--terms ia,ie,tn,te,npae,npoa,tf,az:sin:az:2,HACA2] [--json]
     pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
@@ -12,6 +13,12 @@ order of ``terms``), plus ``iterations``, ``message``, ``solver``, ``fixed``,
 ``loss``, ``outliers`` (0-based indices of observations a robust ``--loss`` rejected;
 ``n_obs`` counts the observations kept) and ``warnings``. Exit status: 0 on a converged fit, 1 if the fit did not converge, 2 for
 bad input.
+
+``pointax fit FILE --format gpoint`` reads an RTS2 gpoint ``altaz-manual`` (or ``altaz``)
+file (azimuth from South through West, as gpoint counts it) and fits gpoint's terms
+(``ia ie tn te npae npoa tf`` by default; lower-case names are gpoint's, ``a:b:c:d``
+strings gpoint's extra terms, upper-case names TPOINT's, mixed freely), printing the
+same report or JSON as for TPOINT runs.
 
 ``pointax fit DIR --format paint`` calibrates one PAINT heliostat folder (robust fit,
 outlier flags, leave-one-out; :func:`pointax.calibrate_heliostat`) and prints the report
@@ -58,6 +65,7 @@ from .io import (
     FOCAL_SPOT_METHODS,
     PaintFormatError,
     TpointFormatError,
+    read_gpoint,
     read_model,
     read_paint,
     read_tpoint,
@@ -95,7 +103,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="how the file counts azimuth (default N-E, TPOINT's standard; the bundled MMT run is S-E). "
         "Fitted TPOINT terms do not depend on it; directions in ENU do",
     )
-    p.add_argument("--format", choices=["tpoint", "paint"], default="tpoint", help="input format (default: tpoint)")
+    p.add_argument(
+        "--format",
+        choices=["tpoint", "paint", "gpoint"],
+        default="tpoint",
+        help="input format (default: tpoint; gpoint: an RTS2 gpoint altaz-manual or altaz file)",
+    )
     p.add_argument(
         "--loss",
         choices=sorted(LOSSES),
@@ -263,13 +276,27 @@ def _fit_paint(args) -> int:
     return 0 if bool(cal.result.converged) else 1
 
 
+def _gpoint_model(args, run):
+    if args.azimuth != "N-E":
+        raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
+    spec = args.terms if args.terms is not None else term_library.GPOINT_ALTAZ_TERMS
+    terms = term_library.gpoint_terms(spec, form=args.form)
+    if args.write_model and any(t.name != t.name.upper() for t in terms):
+        raise ValueError("--write-model writes TPOINT model files; gpoint's lower-case terms have no TPOINT name there")
+    # gpoint's names are case-sensitive (ie is not IE): no upper-casing of --fix.
+    return AltAz(terms, azimuth=run.azimuth, fixed=term_library.gpoint_names(args.fix))
+
+
 def _fit_command(args) -> int:
     if args.format == "paint":
         return _fit_paint(args)
-    run = read_tpoint(args.data, azimuth=args.azimuth)
-    terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
-    fixed = term_library.names(args.fix)
-    model = AltAz(terms, azimuth=run.azimuth, fixed=fixed)
+    if args.format == "gpoint":
+        run = read_gpoint(args.data)
+        model = _gpoint_model(args, run)
+    else:
+        run = read_tpoint(args.data, azimuth=args.azimuth)
+        terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
+        model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix))
     result = fit(model, run, solver=args.solver, max_steps=args.max_steps, loss=args.loss or "linear")
     if args.write_model:
         write_model(args.write_model, result)

@@ -382,6 +382,9 @@ def command(
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
         near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
     lim = _limits_array(limits)
+    # Parameters as arrays, so that jit traces them instead of baking Python floats in
+    # (one compilation for every set of values).
+    model = model.with_values(model.values())
     # Pad the batch to a power of two: one compilation serves many batch sizes.
     size = max(_MIN_BATCH, 1 << max(n - 1, 0).bit_length())
     pad = size - n

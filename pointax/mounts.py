@@ -9,8 +9,17 @@ A mount turns two axis angles into a boresight direction::
 mount's own frame to East-North-Up. Error terms (:mod:`pointax.terms`) slot extra
 rotations in between (``R_base`` before ``R1``, ``R_axes`` between the axes,
 ``R_bore`` before ``b0``) and add encoder and sky offsets; the mount itself knows
-nothing of them. A new mount (X-Y, equatorial, a mirror turntable) is a new subclass
-of :class:`Mount`; the model and the fitting code do not change.
+nothing of them. A new mount is a new subclass of :class:`Mount`; the model and the
+fitting code do not change.
+
+Mounts whose two axes are perpendicular (alt-az, X-Y, equatorial) share one chain,
+:class:`SphericalMount`: in the mount's own frame the boresight points at
+``(sin a1 cos a2, cos a1 cos a2, sin a2)``, axis 1 about the frame's +z and axis 2
+lifting the boresight towards +z. They differ only in ``F``, which puts the frame's
++z pole on the first axis: the zenith (alt-az), the north horizon (X-Y) or the
+celestial pole (equatorial). Fit residuals, taken in the tangent plane of that frame,
+are then ``(d a1 cos a2, d a2)``: per-axis offsets with the pole where no one
+observes (:meth:`Mount.axis_residuals`).
 """
 
 from __future__ import annotations
@@ -18,13 +27,25 @@ from __future__ import annotations
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
-from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, wrap_pi
+from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, tangent_offset, wrap_pi
 
-__all__ = ["Mount", "AltAzMount", "TurntableMount", "HeliostatMount", "AZIMUTH_CONVENTIONS", "nearest_solution"]
+__all__ = [
+    "Mount",
+    "SphericalMount",
+    "AltAzMount",
+    "XYMount",
+    "EquatorialMount",
+    "TurntableMount",
+    "HeliostatMount",
+    "AZIMUTH_CONVENTIONS",
+    "XY_FRAME",
+    "nearest_solution",
+]
 
 
 # Frame changes F from the alt-az mount frame (where azimuth runs from +y through +x)
@@ -94,8 +115,62 @@ class Mount(eqx.Module):
         choosing among equivalent solutions the one closest to ``near``."""
         raise NotImplementedError
 
+    def axis_residuals(
+        self, predicted: Float[ArrayLike, "*batch 3"], target: Float[ArrayLike, "*batch 3"]
+    ) -> Float[Array, "*batch 2"]:
+        """Observed minus model on the sky, per axis, radians: exactly the residuals of
+        :func:`pointax.fit` (:func:`pointax.residuals`).
 
-class AltAzMount(Mount):
+        Args:
+            predicted: ``(..., 3)`` where the model points (East-North-Up unit vectors,
+                e.g. ``model(encoder)``).
+            target: ``(..., 3)`` where the star was (observed, catalogue), ENU.
+
+        Returns:
+            ``(..., 2)``: the gnomonic offset of ``target`` from ``predicted`` in the
+            tangent plane at ``target``, in the mount frame. For a
+            :class:`SphericalMount` that is ``(d a1 cos a2, d a2)`` with ``d = observed -
+            model``, to first order: ``(dA cos E, dE)`` for an alt-az mount, ``(dL cos B,
+            dB)`` for an X-Y mount (the per-axis residuals of the level-mount paper's
+            eqs 21-23), ``(dH cos dec, d dec)`` for an equatorial mount. Pure JAX;
+            float64 only where JAX's x64 mode is on.
+        """
+        frame = self.frame
+        return -tangent_offset(jnp.asarray(predicted) @ frame, jnp.asarray(target) @ frame)
+
+
+class SphericalMount(Mount):
+    """A mount with perpendicular axes whose own frame puts axis 1 on +z: at axis
+    angles ``(a1, a2)`` the boresight points at ``(sin a1 cos a2, cos a1 cos a2,
+    sin a2)`` in the mount frame, i.e. ``Rz(-a1) . Rx(a2) . (0, 1, 0)``: axis 1 turns
+    the boresight from +y through +x, axis 2 lifts it towards +z. Subclasses choose the
+    frame change ``F`` (:attr:`frame`) to East-North-Up.
+
+    The two mechanical solutions are ``(a1, a2)`` and ``(a1 + pi, pi - a2)``
+    (:func:`nearest_solution`); at the frame's +z pole axis 1 is undetermined.
+    """
+
+    @property
+    def boresight(self) -> Float[Array, "3"]:
+        return jnp.array([0.0, 1.0, 0.0])
+
+    def axis1(self, angle):
+        # Axis 1 turns from +y through +x: clockwise seen from the +z pole.
+        return rot_z(-angle)
+
+    def axis2(self, angle):
+        # Axis 2 lifts the boresight from +y towards +z.
+        return rot_x(angle)
+
+    def direction(self, angles):
+        return azel_to_enu(angles[0], angles[1])
+
+    def angles_of(self, direction, near):
+        a1, a2 = enu_to_azel(direction)  # safe at the +z pole
+        return nearest_solution(a1, a2, near, _on_axis(direction, 2))
+
+
+class AltAzMount(SphericalMount):
     """Alt-azimuth mount: azimuth about the vertical, then elevation about the
     horizontal axis; at zero angles the boresight points at azimuth 0 on the horizon.
 
@@ -114,9 +189,8 @@ class AltAzMount(Mount):
                 f"unknown azimuth convention {self.azimuth!r}; expected one of {sorted(AZIMUTH_CONVENTIONS)}"
             )
 
-    @property
-    def boresight(self) -> Float[Array, "3"]:
-        return jnp.array([0.0, 1.0, 0.0])
+    # The chain is SphericalMount's: in the mount frame azimuth runs from +y through +x,
+    # exactly as N-E does in ENU, and the +z pole is the zenith.
 
     @property
     def frame(self) -> Float[Array, "3 3"]:
@@ -125,22 +199,6 @@ class AltAzMount(Mount):
     @property
     def convention(self) -> str:
         return self.azimuth
-
-    def axis1(self, angle):
-        # Azimuth turns from +y through +x: clockwise seen from above.
-        return rot_z(-angle)
-
-    def axis2(self, angle):
-        # Elevation lifts the boresight from +y towards +z.
-        return rot_x(angle)
-
-    def direction(self, angles):
-        # In the mount frame azimuth runs from +y through +x, exactly as N-E does in ENU.
-        return azel_to_enu(angles[0], angles[1])
-
-    def angles_of(self, direction, near):
-        az, el = enu_to_azel(direction)  # the mount frame is ENU-like; safe at the zenith
-        return nearest_solution(az, el, near, _on_axis(direction, 2))
 
 
 def _on_axis(direction, axis: int):
@@ -162,6 +220,111 @@ def nearest_solution(a1, a2, near, at_pole=False):
     dist_b = jnp.abs(a1_b - near[0]) + jnp.abs(a2_b - near[1])
     use_a = dist_a <= dist_b
     return jnp.stack([jnp.where(use_a, a1_a, a1_b), jnp.where(use_a, a2, a2_b)])
+
+
+# The X-Y mount's frame: mount (x, y, z) = (East, Up, North). A mirror image (det -1),
+# like the "S-E" azimuth convention: the mount frame's +z pole is the north horizon.
+XY_FRAME: tuple[tuple[float, ...], ...] = ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
+"""Matrix taking X-Y mount-frame vectors (East, Up, North) to East-North-Up."""
+
+
+class XYMount(SphericalMount):
+    """X-Y mount (the level-mount telescope paper, Laser & Infrared 47(5) 2017): the
+    primary axis lies horizontal along North-South, the secondary axis rides on it::
+
+        d = (sin L cos B, sin B, cos L cos B)            in East-North-Up
+
+    ``L`` (axis 1, radians) turns the secondary axis about the primary (North) axis,
+    the boresight from the zenith towards East for ``L > 0``; ``B`` (axis 2, radians)
+    tilts the boresight towards North for ``B > 0``. At zero angles the boresight is
+    at the zenith. In ENU, ``d = Ry(L) . Rx(-B) . (0, 0, 1)`` (the paper's ``ML MB``,
+    eqs 11 and 13).
+
+    The mount frame is ``(East, Up, North)`` (:data:`XY_FRAME`, a mirror image of ENU),
+    where ``(L, B)`` are the azimuth and elevation of a :class:`SphericalMount`: its
+    pole, where ``L`` is undetermined, is the North or South point of the horizon, and
+    fit residuals are ``(dL cos B, dB)`` (observed minus model), the paper's per-axis
+    residuals. Error terms: :mod:`pointax.terms.xy` (the paper's model families).
+
+    The other mechanical solution, ``(L + pi, pi - B)``, points the same way: the
+    normal one has ``|B| <= 90 deg`` and ``|L| < 90 deg`` above the horizon.
+    """
+
+    axis_names: ClassVar[tuple[str, str]] = ("L", "B")
+
+    @property
+    def frame(self) -> Float[Array, "3 3"]:
+        return jnp.array(XY_FRAME)
+
+    @property
+    def convention(self) -> str:
+        return "xy"
+
+
+class EquatorialMount(SphericalMount):
+    """Equatorial mount at a given ``latitude`` (radians, North positive): axis 1 (hour
+    angle ``H``) turns about the polar axis, axis 2 (declination ``dec``) about the
+    declination axis. With the nominal readings ``(H, dec)`` (radians; ``H`` positive
+    West of the meridian, as the sky turns), the boresight is::
+
+        E = -cos dec sin H
+        N =  cos lat sin dec - sin lat cos dec cos H
+        U =  sin lat sin dec + cos lat cos dec cos H
+
+    (the standard hour-angle / declination to horizon rotation). The mount frame is
+    right-handed with +x West, +y the celestial equator on the meridian, +z the north
+    celestial pole: ``(H, dec)`` are the azimuth and elevation of a
+    :class:`SphericalMount` there, so fit residuals are ``(dH cos dec, d dec)``
+    (observed minus model) and the pole of the residual basis is the celestial pole
+    (axis 1 undetermined there).
+
+    **Pier sides.** Every direction has two readings: the *normal* one ``(H, dec)``
+    with ``|dec| <= 90 deg`` and the *flipped* one ``(H + 180 deg, 180 deg - dec)``,
+    the German equatorial mount's other side of the pier (meridian flip): the
+    declination axis reads past the pole. :func:`pointax.command` gives either
+    (``solution="normal"`` or ``"flipped"``) and error terms see the readings as they
+    are, so pier-side-dependent terms can tell the sides apart by ``cos(axis 2) < 0``.
+    Which physical side (East or West of the pier) the tube is on for the normal
+    reading depends on the end of the declination axis that carries it.
+
+    ``latitude`` is a pytree leaf (not fitted): models of mounts at different latitudes
+    share one compilation.
+    """
+
+    latitude: Float[Array, ""]
+    axis_names: ClassVar[tuple[str, str]] = ("ha", "dec")
+
+    def __init__(self, latitude: Float[ArrayLike, ""]):
+        if isinstance(latitude, jax.core.Tracer):
+            self.latitude = latitude
+            return
+        lat = np.asarray(latitude, np.float64)
+        if lat.shape != ():
+            raise ValueError(f"EquatorialMount: latitude must be one number (radians), got shape {lat.shape}")
+        if not (np.isfinite(lat) and abs(float(lat)) <= np.pi / 2 + 1e-12):
+            raise ValueError(
+                f"EquatorialMount: latitude {float(lat)!r} rad is not within [-pi/2, pi/2] "
+                "(give it in radians: pointax.deg(latitude_deg))"
+            )
+        self.latitude = lat
+
+    @property
+    def frame(self) -> Float[Array, "3 3"]:
+        s, c = jnp.sin(self.latitude), jnp.cos(self.latitude)
+        zero, one = jnp.zeros_like(s), jnp.ones_like(s)
+        # Columns: West, the equator on the meridian, the north celestial pole.
+        return jnp.stack(
+            [
+                jnp.stack([-one, zero, zero]),
+                jnp.stack([zero, -s, c]),
+                jnp.stack([zero, c, s]),
+            ]
+        )
+
+    @property
+    def convention(self) -> str:
+        return "ha-dec"
+
 
 
 class TurntableMount(Mount):

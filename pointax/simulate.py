@@ -27,7 +27,8 @@ def simulate(
         model: the true pointing model.
         encoder: ``(n, 2)`` raw encoder angles, radians, in the mount's convention.
         noise: standard deviation of Gaussian measurement noise on the sky, radians:
-            one value for both axes or ``(cross-elevation, elevation)``.
+            one value for both axes or ``(across axis 1, along axis 2)`` in the mount
+            frame: (cross-elevation, elevation) for alt-az, (dL cos B, dB) for X-Y.
         seed: seed of the NumPy random generator for the noise.
 
     Returns:
@@ -37,7 +38,8 @@ def simulate(
     truth = np.asarray(model(encoder))
     sigma = np.broadcast_to(np.asarray(noise, np.float64), (2,))
     offsets = np.random.default_rng(seed).normal(size=(encoder.shape[0], 2)) * sigma
-    target = np.asarray(offset_direction(jnp.asarray(truth), jnp.asarray(offsets)))
+    frame = np.asarray(model.mount.frame)
+    target = np.asarray(offset_direction(jnp.asarray(truth @ frame), jnp.asarray(offsets))) @ frame.T
     return Observations(encoder, target, convention=model.mount.convention)
 
 

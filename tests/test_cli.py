@@ -9,11 +9,13 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import MMT_DAT, MMT_MOD
 
+import pointax as px
 from pointax.cli import main
 from pointax.io import read_model
 
@@ -197,3 +199,28 @@ def test_command_limits_and_elevation_errors(tmp_path, capsys):
 def test_paint_rejects_tpoint_only_options(tmp_path, capsys):
     assert main(["fit", str(tmp_path), "--format", "paint", "--write-model", "x.mod"]) == 2
     assert "--write-model applies to TPOINT runs" in capsys.readouterr().err
+
+
+GPOINT_SAMPLE = Path(__file__).parent / "data" / "gpoint" / "altaz_manual.txt"
+
+
+def test_fit_gpoint_file_with_gpoint_and_tpoint_names(capsys):
+    """gpoint's own terms (lower case), an extra term and a TPOINT harmonic, mixed."""
+    code = main(["fit", str(GPOINT_SAMPLE), "--format", "gpoint", "--terms", "ia,ie,tn,te,npae,npoa,tf", "--fix", "tf", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["converged"]
+    assert [t["name"] for t in out["terms"]] == ["ia", "ie", "tn", "te", "npae", "npoa"]
+    assert "tf" in out["fixed"]
+    # The same fit through the Python API gives the same numbers.
+    run = px.io.read_gpoint(GPOINT_SAMPLE)
+    model = px.AltAz(px.terms.gpoint_terms("ia,ie,tn,te,npae,npoa,tf"), azimuth=run.azimuth, fixed=["tf"])
+    api = px.fit(model, run)
+    for row in out["terms"]:
+        assert row["value_arcsec"] == pytest.approx(api.value(row["name"], "arcsec"), abs=1e-9)
+
+
+def test_fit_gpoint_rejects_tpoint_only_options(capsys):
+    assert main(["fit", str(GPOINT_SAMPLE), "--format", "gpoint", "--azimuth", "S-E"]) == 2
+    assert "South through West" in capsys.readouterr().err
+    assert main(["fit", str(GPOINT_SAMPLE), "--format", "gpoint", "--write-model", "x.mod"]) == 2
+    assert "lower-case" in capsys.readouterr().err

@@ -1,5 +1,13 @@
-"""File formats: TPOINT input and model files; PAINT heliostat calibration data."""
+"""File formats: TPOINT input and model files; RTS2 gpoint alt-az runs; PAINT heliostat
+calibration data."""
 
+from .gpoint import (
+    GPOINT_AZIMUTH,
+    GpointFormatError,
+    GpointRun,
+    parse_gpoint,
+    read_gpoint,
+)
 from .paint import (
     FOCAL_SPOT_METHODS,
     CalibrationSample,
@@ -32,6 +40,11 @@ from .tpoint import (
 )
 
 __all__ = [
+    "GPOINT_AZIMUTH",
+    "GpointFormatError",
+    "GpointRun",
+    "parse_gpoint",
+    "read_gpoint",
     "FOCAL_SPOT_METHODS",
     "CalibrationSample",
     "HeliostatProperties",

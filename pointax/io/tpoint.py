@@ -25,6 +25,8 @@ Model file layout::
 
 pointax sums all sky offsets of a model (TPOINT's "parallel"); TPOINT's default of
 chaining terms one after another differs only in second order of the coefficients.
+Harmonic terms (``HACA2``, ``HSCA5CE8``) are read and written under their names and
+rebuilt by :func:`pointax.terms.tpoint` (:mod:`pointax.terms.harmonic`).
 
 Any malformed record raises :class:`TpointFormatError`, whose message names the file,
 the line and the field.
@@ -319,6 +321,8 @@ class ModelTerm:
     """Marked '=' in the file: held fixed in TPOINT's fit."""
     parallel: bool = False
     """Marked '&': applied in parallel with the previous term."""
+    line: int | None = dataclasses.field(default=None, compare=False)
+    """Line number in the file it was read from (not compared)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -343,12 +347,30 @@ class TpointModelFile:
         return {t.name: t.value * ARCSEC for t in self.terms}
 
     def model(self, form: str = "linear", azimuth: str = "N-E"):
-        """The :class:`pointax.Model` (alt-az) these terms describe, with their values."""
+        """The :class:`pointax.Model` (alt-az) these terms describe, with their values.
+
+        Harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their names
+        (:mod:`pointax.terms.harmonic`). ``azimuth`` must be how the run the model was
+        fitted to counts azimuth: TPOINT's AN, AW and every harmonic term with an
+        azimuth argument are defined on the azimuth as written in that file.
+
+        Raises:
+            TpointFormatError: for a term pointax does not know, naming the file, the
+                term's line and what is wrong with the name.
+            ValueError: for an unknown ``form``.
+        """
         from ..model import AltAz
         from ..terms import tpoint
 
+        tpoint([], form=form)  # an unknown form raises here, not as a term's error
+        terms = []
+        for t in self.terms:
+            try:
+                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}))
+            except ValueError as err:
+                raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
         fixed = [t.name for t in self.terms if t.fixed]
-        return AltAz(tpoint(self.names, form=form, values=self.values()), azimuth=azimuth, fixed=fixed)
+        return AltAz(terms, azimuth=azimuth, fixed=fixed)
 
 
 def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
@@ -396,7 +418,9 @@ def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
         v = _numbers(path, lineno, tokens[1:], ("value (arcsec)", "sigma (arcsec)"), f"term record {name}", first=2)
         if name in (t.name for t in terms):
             raise TpointFormatError(path, lineno, f"term {name} appears twice")
-        terms.append(ModelTerm(name, v[0], v[1] if len(v) > 1 else None, fixed="=" in flags, parallel="&" in flags))
+        terms.append(
+            ModelTerm(name, v[0], v[1] if len(v) > 1 else None, fixed="=" in flags, parallel="&" in flags, line=lineno)
+        )
     if caption is None:
         raise TpointFormatError(path, None, "empty file: no caption line")
     if not ended:
@@ -443,9 +467,11 @@ def format_model(
 def write_model(path: str | os.PathLike, source, caption: str | None = None, refraction: tuple[float, float] = (0.0, 0.0)) -> None:
     """Write a TPOINT model file from a :class:`pointax.FitResult` or a :class:`pointax.Model`.
 
-    Only one-parameter terms in arcseconds can be written (TPOINT's format holds one
-    number per term); other parameters raise ``ValueError``. For a fit result the
-    sigmas, N and Sky RMS are written too.
+    Only one-parameter terms in arcseconds with upper-case (TPOINT) names can be written
+    (TPOINT's format holds one number per term, and reads names case-insensitively);
+    other parameters, e.g. gpoint's lower-case terms, raise ``ValueError``. Harmonic
+    terms are written under their names (``HACA2``) and read back as the same terms.
+    For a fit result the sigmas, N and Sky RMS are written too.
     """
     from ..fit import FitResult
 
@@ -460,6 +486,13 @@ def write_model(path: str | os.PathLike, source, caption: str | None = None, ref
     for p in model.parameters:
         if p.unit != "arcsec" or "." in p.name:
             raise ValueError(f"parameter {p.name} ({p.unit}) cannot be written to a TPOINT model file")
+        if p.name != p.name.upper():
+            # TPOINT names are case-insensitive: gpoint's 'ie' would read back as TPOINT's IE,
+            # which has the opposite sign.
+            raise ValueError(
+                f"parameter {p.name} cannot be written to a TPOINT model file: its name is not a TPOINT name "
+                f"(TPOINT names are upper-case; it would read back as {p.name.upper()!r})"
+            )
         sigma = sigmas.get(p.name)
         terms.append(
             ModelTerm(

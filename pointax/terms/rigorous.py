@@ -11,6 +11,9 @@ Geometry (mount frame, see :class:`pointax.AltAzMount`)::
 
 Encoder terms (IA, IE, ACEC, ACES, ECEC, ECES, PAA1, PEE1) correct the encoder angles
 and are evaluated at the raw encoder reading, which is where an encoder error lives.
+Harmonic terms in this form (:class:`pointax.terms.harmonic.RigorousHarmonic`) follow the
+same pattern: azimuth and elevation harmonics are encoder corrections, cross-elevation
+harmonics turn the boresight as CA does.
 """
 
 from __future__ import annotations

@@ -45,6 +45,8 @@ than its encoder says (``dA = -coef * f``), a positive elevation coefficient at
 
 The linear form is what TPOINT fits; it has poles where ``tan E`` or ``sec E`` do (at
 the zenith). :mod:`pointax.terms.rigorous` gives the same physics as exact rotations.
+TPOINT's harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their names by
+:mod:`pointax.terms.harmonic`; :func:`pointax.terms.tpoint` builds both kinds by name.
 """
 
 from __future__ import annotations

@@ -1,0 +1,258 @@
+"""TPOINT's harmonic terms, generated from their names.
+
+A harmonic term's name says what it is::
+
+    H  R  F1 V1 [m1]  [F2 V2 [m2]]
+
+* ``H``: a harmonic term.
+* ``R``: what it corrects: ``A`` azimuth, ``E`` elevation, ``S`` cross-elevation
+  (a sideways offset on the sky, ``dA cos E``).
+* ``F``: ``S`` sine or ``C`` cosine; ``V``: its argument, ``A`` azimuth or ``E``
+  elevation; ``m``: an optional integer multiplier >= 1 (1 when left out).
+* An optional second factor of the same kind multiplies the first.
+
+Examples: ``HACA2`` (``dA`` proportional to ``cos 2A'``), ``HESE5`` (``dE`` proportional
+to ``sin 5E``), ``HESACE`` (``dE`` proportional to ``sin A' cos E``), ``HSCA5CE8``
+(cross-elevation proportional to ``cos 5A' cos 8E``). Names are case-insensitive and
+kept upper-case; the multiplier is kept as written (``HACA`` and ``HACA1`` are the same
+function under two names, so use one of them).
+
+TPOINT's conventions (``DESIGN.md``, checked there against a published 22-term TPOINT
+fit of a real alt-az run, where every coefficient came back within 0.4 sigma):
+
+* **Azimuth argument.** Inside the functions the azimuth is ``A' = 180 deg - A``, with
+  ``A`` the azimuth *as the data count it*: the mount's ``azimuth`` convention, i.e. the
+  numbers in the TPOINT file. What ``A'`` is on the sky therefore depends on that
+  convention (``A_NE`` = azimuth from North through East):
+
+  ==============  =======================  =============================================
+  convention      A (as written)           A' = 180 deg - A
+  ==============  =======================  =============================================
+  ``"N-E"``       ``A_NE``                 ``180 deg - A_NE`` (from South through East)
+  ``"S-E"``       ``180 deg - A_NE``       ``A_NE`` (from North through East)
+  ``"S-W"``       ``A_NE - 180 deg``       ``-A_NE`` (from North through West)
+  ==============  =======================  =============================================
+
+  So the coefficients of a harmonic fit, like TPOINT's, belong to the way the file
+  counts azimuth: a model and its data must use the same convention (they do when the
+  model is built with ``azimuth=run.azimuth``). Cosines of even multiples do not
+  notice: ``cos 2(180 deg - A) = cos 2A``.
+* **Sign.** As IA and IE: observed minus raw is ``dA = -coef f`` for ``A`` terms,
+  ``dE = +coef f`` for ``E`` terms and ``dA cos E = -coef f`` for ``S`` terms.
+
+Hence TPOINT's identities ACEC = HACA1, ACES = HASA1, ECEC = HECE1, ECES = HESE1 with
+the centring terms of :mod:`pointax.terms.tpoint` (a test checks all four, in both
+forms).
+
+Two forms, like the named terms:
+
+* ``form="linear"`` (:class:`Harmonic`): TPOINT's own definition, an offset of the
+  pointing evaluated at the corrected (sky) position. ``S`` terms have a pole at the
+  zenith (``dA = -coef f / cos E``), as TPOINT's.
+* ``form="rigorous"`` (:class:`RigorousHarmonic`): ``A`` and ``E`` terms are encoder
+  errors, ``coef f`` added to the encoder angle and evaluated at the raw encoder
+  reading (where a periodic encoder error lives: this is what the rigorous ACEC,
+  ACES, ECEC, ECES already are); ``S`` terms turn the boresight sideways by
+  ``-coef f`` about the tube's axis perpendicular to the elevation axis (the rigorous
+  CA with a coefficient that varies with position), an exact cross-elevation offset
+  with no pole at the zenith. To first order in the coefficient both forms agree.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ..rotations import rot_z
+from .base import Term, angle_pair, param
+from .tpoint import LinearTerm
+
+__all__ = [
+    "HarmonicSpec",
+    "Harmonic",
+    "RigorousHarmonic",
+    "parse_harmonic",
+    "is_harmonic_name",
+    "harmonic_term",
+    "harmonic_function",
+    "RESULTS",
+]
+
+RESULTS = {"A": "azimuth", "E": "elevation", "S": "cross-elevation (dA cos E)"}
+"""Letter after ``H`` -> what the term corrects."""
+_FUNCTIONS = {"S": "sine", "C": "cosine"}
+_ARGUMENTS = {"A": "azimuth", "E": "elevation"}
+_MAX_FACTORS = 2
+
+
+@dataclasses.dataclass(frozen=True)
+class HarmonicSpec:
+    """A parsed harmonic-term name.
+
+    Attributes:
+        name: the name, upper-case, as written (e.g. ``"HSCA5CE8"``).
+        result: ``"A"``, ``"E"`` or ``"S"``: what the term corrects.
+        factors: ``((function, argument, multiplier), ...)``, one or two factors, with
+            function ``"S"``/``"C"``, argument ``"A"``/``"E"`` and an integer multiplier.
+    """
+
+    name: str
+    result: str
+    factors: tuple[tuple[str, str, int], ...]
+
+    def describe(self) -> str:
+        """The formula in words, e.g. ``dA = -coef cos(2 A')``."""
+        parts = []
+        for func, arg, mult in self.factors:
+            x = "A'" if arg == "A" else "E"
+            multiplier = "" if mult == 1 else f"{mult} "
+            parts.append(f"{'sin' if func == 'S' else 'cos'}({multiplier}{x})")
+        f = " ".join(parts)
+        return {"A": f"dA = -coef {f}", "E": f"dE = +coef {f}", "S": f"dA cos E = -coef {f}"}[self.result]
+
+
+def is_harmonic_name(name: str) -> bool:
+    """Whether ``name`` is meant as a harmonic term (starts with ``H``, case-insensitive).
+
+    Every TPOINT alt-az term pointax knows by a fixed name starts with another letter.
+    """
+    return isinstance(name, str) and name.strip().upper().startswith("H")
+
+
+def parse_harmonic(name: str) -> HarmonicSpec:
+    """Parse a TPOINT harmonic-term name such as ``HACA2``, ``HESACE`` or ``HSCA5CE8``.
+
+    Raises:
+        ValueError: naming the character that does not fit the grammar
+            ``H {A|E|S} {S|C}{A|E}[m] [{S|C}{A|E}[m]]``.
+    """
+    text = name.strip().upper()
+
+    def bad(pos: int, what: str):
+        got = repr(text[pos]) if pos < len(text) else "the end of the name"
+        return ValueError(
+            f"harmonic term {name!r}: character {pos + 1} is {got}, expected {what} "
+            "(harmonic names read H, then A/E/S for what is corrected, then one or two factors "
+            "S or C, A or E, optional multiplier; e.g. HACA2, HESE5, HESACE, HSCA5CE8)"
+        )
+
+    if not text.startswith("H"):
+        raise bad(0, "'H'")
+    if len(text) < 2 or text[1] not in RESULTS:
+        raise bad(1, "A (azimuth), E (elevation) or S (cross-elevation)")
+    pos, factors = 2, []
+    while pos < len(text) or not factors:
+        if len(factors) == _MAX_FACTORS:
+            raise ValueError(
+                f"harmonic term {name!r}: at most {_MAX_FACTORS} factors are supported; "
+                f"{text[pos:]!r} follows the second"
+            )
+        if pos >= len(text) or text[pos] not in _FUNCTIONS:
+            raise bad(pos, "S (sine) or C (cosine)")
+        if pos + 1 >= len(text) or text[pos + 1] not in _ARGUMENTS:
+            raise bad(pos + 1, "A (azimuth) or E (elevation) as the argument")
+        digits = re.match(r"\d*", text[pos + 2 :]).group(0)
+        if digits.startswith("0"):
+            raise ValueError(
+                f"harmonic term {name!r}: multiplier {digits!r} must be an integer >= 1 without leading zeros"
+            )
+        factors.append((text[pos], text[pos + 1], int(digits) if digits else 1))
+        pos += 2 + len(digits)
+    return HarmonicSpec(text, text[1], tuple(factors))
+
+
+def harmonic_function(
+    factors: tuple[tuple[str, str, int], ...], az: Float[Array, ""], el: Float[Array, ""]
+) -> Float[Array, ""]:
+    """The product of the factors at azimuth ``az`` (as the data count it) and elevation
+    ``el`` (radians); the azimuth argument is ``A' = pi - az`` (TPOINT's convention)."""
+    out = jnp.ones_like(jnp.asarray(az, float))
+    for func, arg, mult in factors:
+        x = (jnp.pi - az) if arg == "A" else el
+        out = out * (jnp.sin(mult * x) if func == "S" else jnp.cos(mult * x))
+    return out
+
+
+class Harmonic(LinearTerm):
+    """A TPOINT harmonic term in TPOINT's linear form (see :mod:`pointax.terms.harmonic`).
+
+    ``dA = -coef f`` (``A`` terms), ``dE = +coef f`` (``E`` terms) or
+    ``dA cos E = -coef f`` (``S`` terms), with ``f`` the product of the named sines and
+    cosines of ``A' = 180 deg - A`` and ``E``, evaluated at the sky position.
+    Build one with :func:`harmonic_term` or :func:`pointax.terms.tpoint`.
+
+    Attributes:
+        coef: the coefficient, radians (reported in arcseconds).
+        label: the term's name, e.g. ``"HACA2"`` (static).
+        result: ``"A"``, ``"E"`` or ``"S"`` (static).
+        factors: ``((function, argument, multiplier), ...)`` (static).
+    """
+
+    coef: float = param(0.0)
+    label: str = eqx.field(static=True, default="HACA1")
+    result: str = eqx.field(static=True, default="A")
+    factors: tuple[tuple[str, str, int], ...] = eqx.field(static=True, default=(("C", "A", 1),))
+
+    @property
+    def name(self) -> str:
+        return self.label
+
+    def basis(self, az, el):
+        f = harmonic_function(self.factors, az, el)
+        if self.result == "A":
+            return -f, 0.0
+        if self.result == "E":
+            return 0.0, f
+        return -f / jnp.cos(el), 0.0
+
+
+class RigorousHarmonic(Term):
+    """A TPOINT harmonic term in rigorous form (see :mod:`pointax.terms.harmonic`).
+
+    ``A`` and ``E`` terms: ``-coef f`` added to the azimuth encoder angle, ``+coef f``
+    to the elevation encoder angle, ``f`` evaluated at the raw encoder reading.
+    ``S`` terms: the boresight turned by ``-coef f`` towards increasing azimuth
+    (``rot_z(coef f)`` before the boresight, as the rigorous CA), ``f`` evaluated at
+    the corrected axis angles: a cross-elevation offset of exactly ``-coef f``.
+
+    Attributes: as :class:`Harmonic`.
+    """
+
+    coef: float = param(0.0)
+    label: str = eqx.field(static=True, default="HACA1")
+    result: str = eqx.field(static=True, default="A")
+    factors: tuple[tuple[str, str, int], ...] = eqx.field(static=True, default=(("C", "A", 1),))
+
+    @property
+    def name(self) -> str:
+        return self.label
+
+    def encoder_offset(self, encoder):
+        if self.result == "S":
+            return None
+        f = self.coef * harmonic_function(self.factors, encoder[0], encoder[1])
+        return angle_pair(-f, 0.0) if self.result == "A" else angle_pair(0.0, f)
+
+    def boresight_rotation(self, angles):
+        if self.result != "S":
+            return None
+        return rot_z(self.coef * harmonic_function(self.factors, angles[0], angles[1]))
+
+
+def harmonic_term(name: str, coef: float = 0.0, form: str = "linear") -> Harmonic | RigorousHarmonic:
+    """The harmonic term called ``name`` (e.g. ``"HACA2"``) with coefficient ``coef``
+    (radians), in TPOINT's ``"linear"`` form or the ``"rigorous"`` form.
+
+    Raises:
+        ValueError: for a name that is not a harmonic term (the message says which
+            character is wrong) or an unknown form.
+    """
+    spec = parse_harmonic(name)
+    forms = {"linear": Harmonic, "rigorous": RigorousHarmonic}
+    if form not in forms:
+        raise ValueError(f"unknown term form {form!r}; expected one of {sorted(forms)}")
+    return forms[form](coef=coef, label=spec.name, result=spec.result, factors=spec.factors)
