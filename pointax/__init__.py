@@ -28,6 +28,7 @@ from .mounts import (
     XYMount,
 )
 from .observations import Observations
+from .shared import SharedFit, fit_shared
 from .simulate import simulate
 from .terms import Term, param
 from .units import arcsec, deg, rad
@@ -66,6 +67,8 @@ __all__ = [
     "reflect_normal",
     "residuals",
     "rotations",
+    "SharedFit",
+    "fit_shared",
     "simulate",
     "SphericalMount",
     "site_result",

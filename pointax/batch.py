@@ -137,7 +137,7 @@ def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, 
     before = state.f_info.residual
     fitted = model._replace(params, [y[k] for k in range(len(params))])
     r = site_residuals(fitted, data, weighted=False)
-    rw = (r[0] * data.sqrt_weight, r[1] * data.sqrt_weight)
+    rw = (r[0] * data.sqrt_weight, r[1] * data.sqrt_weight)  # 0 where unused
     r = jnp.stack(r, axis=-1)
     # The covariance from the last step's Jacobian (at the point before the last update,
     # which is below the tolerances: the difference is of the order of that update).

@@ -189,6 +189,11 @@ class SharedSchur(lx.AbstractLinearSolver):
         return True
 
 
+def _only(active, x):
+    """``x`` for the active sites, 0 (not NaN * 0) for the others: a site left out may hold NaN."""
+    return jnp.where(active[:, None] > 0, x, 0.0)
+
+
 def _joint_residual_function(own_params, shared_params):
     """``f((Y, p), (model, data, active)) -> (rx, ry)`` of shape ``(S, N)``, with Jacobian
     columns from :func:`pointax.site.residual_columns` (a ``jax.custom_jvp``)."""
@@ -200,7 +205,7 @@ def _joint_residual_function(own_params, shared_params):
 
     def residual(y, p, model, data, active):
         rx, ry = jax.vmap(lambda ys, d: site_residuals(site_model(model, ys, p), d))(y, data)
-        return rx * active[:, None], ry * active[:, None]
+        return _only(active, rx), _only(active, ry)
 
     @jax.custom_jvp
     def fn(y, p, model, data, active):
@@ -225,7 +230,7 @@ def _joint_residual_function(own_params, shared_params):
                     continue
                 w = tp[k - m]
             ty_out = [ty_out[0] + w * cx, ty_out[1] + w * cy]
-        return out, (ty_out[0] * active[:, None], ty_out[1] * active[:, None])
+        return out, (_only(active, ty_out[0]), _only(active, ty_out[1]))
 
     fn.defjvp(fn_jvp, symbolic_zeros=True)
 

@@ -78,9 +78,13 @@ def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = 
     """
     mount = model.mount
     used = obs.weight > 0 if used is None else used & (obs.weight > 0)
-    reading = jnp.where(used[:, None], obs.encoder, 0.0)
+    # Unused rows (weight 0, maybe NaN) take the first used row's reading and target: a
+    # place this mount can point at, so no term meets a pole there (zero would put an
+    # alt-az mount on the horizon, where cot E is infinite).
+    first = jnp.argmax(used)
+    reading = jnp.where(used[:, None], obs.encoder, obs.encoder[first])
     nominal = jax.vmap(mount.axis_angles)(reading)
-    target = jnp.where(used[:, None], jnp.asarray(obs.target) @ mount.frame, mount.boresight)
+    target = jnp.where(used[:, None], jnp.asarray(obs.target), jnp.asarray(obs.target)[first]) @ mount.frame
     az, el = enu_to_azel(target)  # as tangent_basis takes them
     weight = jnp.where(used, obs.weight, 0.0)
     weight = weight * jnp.sum(used) / jnp.sum(weight)
@@ -291,13 +295,11 @@ def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple
     ca, sa, ce, se = data.target_trig
     # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
     horizontal = x * sa + y * ca
-    # Unused rows (weight 0) hold a placeholder target the model may point far from.
-    inv_depth = 1.0 / jnp.where(data.used, ce * horizontal + se * z, 1.0)
+    inv_depth = 1.0 / (ce * horizontal + se * z)
     rx = (y * sa - x * ca) * inv_depth
     ry = (se * horizontal - ce * z) * inv_depth
-    if weighted:  # unused rows have weight 0
-        return rx * data.sqrt_weight, ry * data.sqrt_weight
-    return jnp.where(data.used, rx, 0.0), jnp.where(data.used, ry, 0.0)
+    scale = data.sqrt_weight if weighted else 1.0
+    return jnp.where(data.used, rx * scale, 0.0), jnp.where(data.used, ry * scale, 0.0)
 
 
 def _values(y, n: int) -> list:

@@ -72,6 +72,13 @@ def test_clean_sites_equal_their_solo_fits(network, batch_result):
         assert float(batch_result.sky_rms[k]) == pytest.approx(float(solo.sky_rms), rel=1e-9)
 
 
+def test_clean_sites_take_the_fast_path(network, batch_result):
+    """Clean sites converge within the fixed Gauss-Newton steps (no fallback loop)."""
+    _, clean_rows = network
+    assert all(int(batch_result.iterations[k]) == 5 for k in clean_rows)
+    assert all(int(batch_result.iterations[k]) > 5 for k in (1, 6))  # the poisoned ones went on
+
+
 def test_poisoned_sites_are_flagged(batch_result):
     converged = np.asarray(batch_result.converged)
     nan_site = px.site_result(batch_result, 1)
