@@ -10,11 +10,12 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     print(px.fit(model, run).report())
 """
 
-from . import io, rotations, sky, stars, terms, units
+from . import distributed, io, network, rotations, sky, stars, terms, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
+from .network import fit_network
 from .model import AltAz, Model, ParameterInfo, Turntable
 from .mount_models import XY, XY_FAMILIES, Equatorial, xy_family
 from .mounts import (
@@ -54,13 +55,16 @@ __all__ = [
     "Term",
     "arcsec",
     "deg",
+    "distributed",
     "calibrate_heliostat",
     "command",
     "command_reflector",
     "fit",
     "fit_batch",
+    "fit_network",
     "heliostat_model",
     "leave_one_out",
+    "network",
     "io",
     "param",
     "rad",

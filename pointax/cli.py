@@ -4,6 +4,7 @@
     pointax fit DIR --format paint [--terms t1n,t1u,t2e,t2n] [--loss cauchy] [--json]
     pointax fit FILE --format gpoint [--terms ia,ie,tn,te,npae,npoa,tf,az:sin:az:2,HACA2] [--json]
     pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
+    pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS]
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
@@ -40,6 +41,10 @@ mirror normal is their bisector). ``#`` starts a comment. The model is a turntab
 ``--terms``). It prints one line per direction (readings in degrees, ok, reason) or a
 JSON list. Exit status 0 when every direction was commanded, 1 when some were not.
 
+``pointax fit-network`` fits every site of a network listed in a CSV manifest (see
+:mod:`pointax.network`): one batched fit per model, a progress bar and a summary on
+standard error (``--quiet``: none), per-site JSON with ``--json``.
+
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
 of the same model then starts in about 2 s instead of 8 s. ``POINTAX_JAX_CACHE=""``
@@ -73,6 +78,7 @@ from .io import (
 )
 from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
+from .network import add_fit_network_parser, run_fit_network
 from .rotations import azel_to_enu_numpy
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .units import UNITS
@@ -141,6 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--solution", choices=SOLUTIONS, default="nearest", help="mechanical solution (default: nearest, i.e. normal)")
     c.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
+    add_fit_network_parser(sub)
     return parser
 
 
@@ -325,6 +332,8 @@ def main(argv: list[str] | None = None) -> int:
             return _fit_command(args)
         if args.command == "command":
             return _command_command(args)
+        if args.command == "fit-network":
+            return run_fit_network(args)
     except (TpointFormatError, PaintFormatError, ValueError, KeyError) as err:
         print(f"pointax: error: {err}", file=sys.stderr)
         return 2

@@ -1,5 +1,5 @@
 """File formats: TPOINT input and model files; RTS2 gpoint alt-az runs; PAINT heliostat
-calibration data."""
+calibration data; sun-tracker observation files (pointax's own text format)."""
 
 from .gpoint import (
     GPOINT_AZIMUTH,
@@ -25,6 +25,14 @@ from .paint import (
     sun_enu_from_paint,
     wgs84_to_enu,
 )
+from .sun import (
+    SunFormatError,
+    SunRun,
+    format_sun_observations,
+    parse_sun_observations,
+    read_sun_observations,
+    write_sun_observations,
+)
 from .tpoint import (
     ModelTerm,
     RunParameters,
@@ -40,6 +48,12 @@ from .tpoint import (
 )
 
 __all__ = [
+    "SunFormatError",
+    "SunRun",
+    "format_sun_observations",
+    "parse_sun_observations",
+    "read_sun_observations",
+    "write_sun_observations",
     "GPOINT_AZIMUTH",
     "GpointFormatError",
     "GpointRun",
