@@ -73,8 +73,8 @@ ARCSEC = np.pi / 180 / 3600
 
 # pointax variants: name -> keyword arguments of px.fit_batch (adding one is one line).
 VARIANTS: dict[str, dict] = {
-    "pointax": {},
-    "pointax gauss-newton": {"solver": "gauss-newton"},
+    "pointax": {},  # 5 fixed Gauss-Newton steps, then the LM loop for the sites not converged
+    "pointax 4 steps": {"steps": 4},
 }
 
 PAPER_DEG = np.array([0.0751, 0.0145, -0.0947, 60.5425, 165.8931])  # mu0 nu0 omega0 alpha0 beta0

@@ -201,6 +201,17 @@ class Model(eqx.Module):
                 total = offset if total is None else total + offset
         return total
 
+    def sky_position(self, chain_angles: Float[Array, "*batch 2"]) -> Float[Array, "*batch 2"]:
+        """Solve ``sky = chain_angles + sum(term.sky_offset(sky))`` by fixed-point
+        iteration (``sky_iterations`` of them). A loop, not unrolled: unrolled, the
+        iterations of a many-term model multiplied its compilation time (30 s against
+        5 s for 26 terms)."""
+        if chain_angles.ndim == 1:
+            offset = self._sky_offset
+        else:
+            offset = jax.vmap(self._sky_offset)
+        return jax.lax.fori_loop(0, self.sky_iterations, lambda _, sky: chain_angles + offset(sky), chain_angles)
+
     def mount_direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
         """Pointing direction in the *mount* frame for one observation's raw encoder
         angles (radians). Use :meth:`direction` for East-North-Up."""
@@ -216,10 +227,7 @@ class Model(eqx.Module):
         if self._sky_offset(angles) is None:
             return d
         chain_angles = mount.angles_of(d, near=angles)
-        sky = chain_angles
-        for _ in range(self.sky_iterations):
-            sky = chain_angles + self._sky_offset(sky)
-        return mount.direction(sky)
+        return mount.direction(self.sky_position(chain_angles))
 
     def sky_angles(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
         """Where the mount points, as angles in the mount's convention (one observation)."""

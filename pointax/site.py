@@ -142,11 +142,30 @@ def _entries(matrix: Array) -> list:
     return [[matrix[..., i, j] for j in range(3)] for i in range(3)]
 
 
-def _axis_form(axis_fn) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Constant matrices ``(alpha, beta, gamma)`` with ``axis_fn(t) = alpha + beta sin t +
-    gamma cos t`` for every angle ``t`` (true of any rotation about a fixed axis, with any
-    fixed rotation before or after it), or None if ``axis_fn`` is not of that form or
-    cannot be evaluated while tracing (e.g. it depends on traced mount fields)."""
+def _axis_form(mount, axis: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Constant matrices ``(alpha, beta, gamma)`` with ``mount.<axis>(t) = alpha + beta sin t
+    + gamma cos t`` for every angle ``t`` (true of any rotation about a fixed axis, with any
+    fixed rotation before or after it), or None if the axis is not of that form or cannot
+    be evaluated while tracing (e.g. it depends on traced mount fields).
+
+    Cached per mount class and configuration when the mount has no array fields (its
+    axes can then depend on nothing else): evaluating it costs tenths of a second."""
+    if jax.tree.leaves(mount):
+        return _axis_form_uncached(getattr(mount, axis))
+    return _axis_form_cached(jax.tree.structure(mount), type(mount), axis, mount)
+
+
+_FORMS: dict = {}
+
+
+def _axis_form_cached(treedef, cls, axis, mount):
+    key = (cls, treedef, axis)
+    if key not in _FORMS:
+        _FORMS[key] = _axis_form_uncached(getattr(mount, axis))
+    return _FORMS[key]
+
+
+def _axis_form_uncached(axis_fn):
     try:
         with jax.ensure_compile_time_eval():
 
@@ -208,11 +227,12 @@ def _encoder_offset(model: Model, nominal):
     return list(zip(total, batched))
 
 
-def _axis_matrices(axis_fn, cos_n, sin_n, nominal, offset) -> list:
+def _axis_matrices(mount, axis: str, cos_n, sin_n, nominal, offset) -> list:
     """``axis(nominal + offset)`` in chain order. For a fixed-axis rotation
     ``axis(n + o) = axis(n) . axis(0)^T . axis(o)``: the first factor comes from the
     data's cos and sin, the second is per site unless the offset varies by observation."""
-    form = _axis_form(axis_fn)
+    axis_fn = getattr(mount, axis)
+    form = _axis_form(mount, axis)
     value, batched = offset
     if form is None:  # not a fixed-axis rotation: the whole matrix per observation
         angle = nominal if value is None else nominal + value
@@ -253,9 +273,9 @@ def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
     hooks = {h: _hook_matrices(model, h, angles) for h in _HOOKS}
     chain = (
         hooks["base_rotation"]
-        + _axis_matrices(mount.axis1, cos1, sin1, nominal[:, 0], offset[0])
+        + _axis_matrices(mount, "axis1", cos1, sin1, nominal[:, 0], offset[0])
         + hooks["axes_rotation"]
-        + _axis_matrices(mount.axis2, cos2, sin2, nominal[:, 1], offset[1])
+        + _axis_matrices(mount, "axis2", cos2, sin2, nominal[:, 1], offset[1])
         + hooks["boresight_rotation"]
     )
     v = _boresight(mount)
@@ -270,10 +290,7 @@ def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
         chain_angles = jax.vmap(mount.angles_of)(jnp.stack(v, axis=-1), angles)
     else:
         chain_angles = angles  # no rotation term in the chain: its direction's angles are these
-    sky = chain_angles
-    for _ in range(model.sky_iterations):
-        sky = chain_angles + jax.vmap(model._sky_offset)(sky)
-    d = jax.vmap(mount.direction)(sky)
+    d = jax.vmap(mount.direction)(model.sky_position(chain_angles))
     return [d[:, 0], d[:, 1], d[:, 2]]
 
 
