@@ -79,7 +79,8 @@ def _batched(encoder, target, weight, convention) -> Observations:
 
 def site_result(result: FitResult, site: int) -> FitResult:
     """One site's :class:`pointax.FitResult` out of a batched one (report, table, ...)."""
-    return jax.tree.map(lambda x: x[site], result)
+    # x[site, ...] keeps 0-d arrays (x[site] of a NumPy leaf would be a NumPy scalar).
+    return jax.tree.map(lambda x: x[site, ...], result)
 
 
 def site_statuses(result: FitResult) -> list[dict[str, str]]:
