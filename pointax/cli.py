@@ -5,6 +5,7 @@
     pointax fit FILE --format gpoint [--terms ia,ie,tn,te,npae,npoa,tf,az:sin:az:2,HACA2] [--json]
     pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
     pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS]
+    pointax centroid FRAME... [--json] [--method auto|intensity|limb]
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
@@ -45,6 +46,11 @@ JSON list. Exit status 0 when every direction was commanded, 1 when some were no
 :mod:`pointax.network`): one batched fit per model, a progress bar and a summary on
 standard error (``--quiet``: none), per-site JSON with ``--json``.
 
+``pointax centroid`` finds the sun in sun-sensor frames (PNG 8/16 bit, FITS, ``.npy``;
+:mod:`pointax.sunsensor`) and prints per frame ``x``, ``y`` (pixels, origin at the centre
+of the top-left pixel, x right, y down), the disk radius, the method, ``status`` and
+``reason``.
+
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
 of the same model then starts in about 2 s instead of 8 s. ``POINTAX_JAX_CACHE=""``
@@ -79,6 +85,7 @@ from .io import (
 from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .network import add_fit_network_parser, run_fit_network
+from .sunsensor.cli import add_centroid_parser, run_centroid
 from .rotations import azel_to_enu_numpy
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .units import UNITS
@@ -148,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--solution", choices=SOLUTIONS, default="nearest", help="mechanical solution (default: nearest, i.e. normal)")
     c.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
     add_fit_network_parser(sub)
+    add_centroid_parser(sub)
     return parser
 
 
@@ -334,6 +342,8 @@ def main(argv: list[str] | None = None) -> int:
             return _command_command(args)
         if args.command == "fit-network":
             return run_fit_network(args)
+        if args.command == "centroid":
+            return run_centroid(args)
     except (TpointFormatError, PaintFormatError, ValueError, KeyError) as err:
         print(f"pointax: error: {err}", file=sys.stderr)
         return 2

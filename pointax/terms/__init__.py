@@ -9,6 +9,7 @@
 * :mod:`pointax.terms.sun_vector`: the sun-vector turntable model's five parameters.
 * :mod:`pointax.terms.xy`: the level-mount (X-Y) paper's families: spherical-harmonic,
   basic, rotation-matrix (rigorous) and its linearised expansion.
+* :mod:`pointax.terms.camera`: the sun-sensor camera's mounting on the mirror.
 * :mod:`pointax.terms.heliostat`: axis tilts and joint zeros of a tilt-tilt heliostat.
 * :class:`Term`, :func:`param`: the base class and field helper for new terms.
 
@@ -23,7 +24,8 @@ from collections.abc import Iterable
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
-from . import rigorous, sun_vector, xy
+from . import camera, rigorous, sun_vector, xy
+from .camera import CameraMounting
 from .base import Term, param, param_fields, param_unit
 from .gpoint import GPOINT_ALTAZ_TERMS, GpointExtra, GpointTerm, gpoint_extra
 from .harmonic import (
@@ -84,6 +86,8 @@ __all__ = [
     "heliostat",
     "heliostat_terms",
     "xy",
+    "camera",
+    "CameraMounting",
     "Harmonic",
     "RigorousHarmonic",
     "harmonic_term",

@@ -1,0 +1,66 @@
+"""Sun-sensor images: synthetic frames, centroids, camera geometry, observations.
+
+An edge of pointax built on torch and kornia (the JAX core never imports it):
+
+* :mod:`~pointax.sunsensor.frames`: synthetic frames of the limb-darkened sun with an
+  exact centre (a camera like the sun-vector paper's, noise, saturation, hot pixels,
+  clipping, thin cloud).
+* :mod:`~pointax.sunsensor.centroid`: batched intensity centroids and limb fits with a
+  status and reason per frame.
+* :mod:`~pointax.sunsensor.camera`: intrinsics and radial distortion through kornia,
+  pixels <-> unit rays in the camera frame.
+* :mod:`~pointax.sunsensor.pipeline`: frames + encoder readings + sun directions ->
+  :class:`pointax.Observations` of the camera axis (see
+  :mod:`pointax.terms.camera` for the camera's mounting term).
+* :mod:`~pointax.sunsensor.imageio`, :mod:`~pointax.sunsensor.cli`: PNG / FITS / .npy
+  frames and ``pointax centroid``.
+
+    from pointax.sunsensor import paper_camera, centroid, sensor_observations
+    cam = paper_camera()
+    found = centroid(frames, radius=cam.sun_radius_px(), aspect=cam.aspect, saturation=4095)
+    data = sensor_observations(frames, readings, sun_enu, cam, saturation=4095)
+    result = px.fit(model_with_camera_term, data)
+"""
+
+import importlib
+
+# Names -> submodule. Loaded on first use (PEP 562), so that importing
+# pointax.sunsensor.cli (for the ``pointax`` command's parser) does not import torch.
+_EXPORTS = {
+    "Camera": "camera",
+    "paper_camera": "camera",
+    "METHODS": "centroid",
+    "STATUSES": "centroid",
+    "Centroids": "centroid",
+    "centroid": "centroid",
+    "check_frame": "centroid",
+    "PAPER_ASPECT": "frames",
+    "PAPER_SUN_RADIUS_PX": "frames",
+    "SUN_ANGULAR_RADIUS": "frames",
+    "Detector": "frames",
+    "SyntheticFrames": "frames",
+    "disk_flux": "frames",
+    "render_disk": "frames",
+    "synthetic_frames": "frames",
+    "FrameReadError": "imageio",
+    "read_frame": "imageio",
+    "SensorObservations": "pipeline",
+    "camera_frames": "pipeline",
+    "refine_targets": "pipeline",
+    "sensor_observations": "pipeline",
+    "simulate_frames": "pipeline",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))
