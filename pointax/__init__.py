@@ -13,6 +13,7 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
 from . import distributed, io, network, rotations, sky, stars, terms, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
+from .compare import Comparison, ModelBuild, build_model, compare
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .network import fit_network
@@ -42,6 +43,10 @@ __all__ = [
     "AltAzMount",
     "AZIMUTH_CONVENTIONS",
     "Command",
+    "Comparison",
+    "ModelBuild",
+    "build_model",
+    "compare",
     "Equatorial",
     "EquatorialMount",
     "FitResult",

@@ -6,6 +6,7 @@
     pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
     pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS]
     pointax centroid FRAME... [--json] [--method auto|intensity|limb]
+    pointax compare DATA --families basic,harmonic,... [--holdout F | --folds K] [--json]
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
@@ -51,6 +52,9 @@ standard error (``--quiet``: none), per-site JSON with ``--json``.
 of the top-left pixel, x right, y down), the disk radius, the method, ``status`` and
 ``reason``.
 
+``pointax compare`` fits several model families to the same run and prints a table
+shaped like the level-mount paper's Table 3 (:func:`pointax.compare`).
+
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
 of the same model then starts in about 2 s instead of 8 s. ``POINTAX_JAX_CACHE=""``
@@ -70,6 +74,7 @@ import numpy as np
 
 from . import terms as term_library
 from .command import SOLUTIONS, command, command_reflector
+from .compare_cli import add_compare_parser, run_compare
 from .fit import LOSSES, SOLVERS, fit
 from .heliostat import calibrate_heliostat
 from .io import (
@@ -156,6 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--json", action="store_true", help="print a JSON list instead of a table")
     add_fit_network_parser(sub)
     add_centroid_parser(sub)
+    add_compare_parser(sub)
     return parser
 
 
@@ -344,6 +350,8 @@ def main(argv: list[str] | None = None) -> int:
             return run_fit_network(args)
         if args.command == "centroid":
             return run_centroid(args)
+        if args.command == "compare":
+            return run_compare(args)
     except (TpointFormatError, PaintFormatError, ValueError, KeyError) as err:
         print(f"pointax: error: {err}", file=sys.stderr)
         return 2

@@ -131,8 +131,8 @@ class Mount(eqx.Module):
             tangent plane at ``target``, in the mount frame. For a
             :class:`SphericalMount` that is ``(d a1 cos a2, d a2)`` with ``d = observed -
             model``, to first order: ``(dA cos E, dE)`` for an alt-az mount, ``(dL cos B,
-            dB)`` for an X-Y mount (the per-axis residuals of the level-mount paper's
-            eqs 21-23), ``(dH cos dec, d dec)`` for an equatorial mount. Pure JAX;
+            dB)`` for an X-Y mount (the level-mount paper's eqs 21-23 use the angle
+            residual dL itself, see :func:`pointax.compare`), ``(dH cos dec, d dec)`` for an equatorial mount. Pure JAX;
             float64 only where JAX's x64 mode is on.
         """
         frame = self.frame
