@@ -315,8 +315,8 @@ def fit_batch(
         if fast:
             out, suspect = _fit_sites_fixed(model, y0, obs, int(steps), rtol, atol)
             out = dataclasses.replace(out, solver=solver)
-            again = np.flatnonzero(~np.asarray(out.converged[: stop - start]) | np.asarray(suspect[: stop - start]))
-            out = jax.tree.map(np.asarray, out)
+            n = stop - start
+            again = np.flatnonzero(~np.asarray(out.converged[:n]) | np.asarray(suspect[:n]))
             if again.size:
                 # Few sites: pad to a power of two so that few shapes are compiled.
                 pad = max(8, 1 << int(np.ceil(np.log2(again.size))))
@@ -327,12 +327,12 @@ def fit_batch(
                     solver, max_steps, rtol, atol, loss, loss_scale, reject,
                 )
                 redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps))
-                out = _put_sites(out, again, redo)
+                out = jax.tree.map(jnp.asarray, _put_sites(out, again, redo))
         else:
             out = _fit_sites(model, y0, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
-        results.append(jax.tree.map(lambda x: np.asarray(x)[: stop - start], out))
+        results.append(out if stop - start == size else jax.tree.map(lambda x: x[: stop - start], out))
         if progress is not None:
             progress(stop, n_sites)
     if len(results) == 1:
-        return jax.tree.map(jnp.asarray, results[0])
-    return jax.tree.map(lambda *xs: jnp.asarray(np.concatenate(xs)), *results)
+        return results[0]
+    return jax.tree.map(lambda *xs: jnp.concatenate(xs), *results)
