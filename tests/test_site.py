@@ -44,6 +44,10 @@ def _cases():
 
 
 CASES = _cases()
+# Jacobians are compared where the chain differs in kind (encoder offsets and rotations;
+# sky offsets); the other cases check the residuals (compiling jacfwd of the plain model
+# costs ~15 s each).
+JACOBIAN_CASES = ("turntable", "altaz linear (sky offsets)")
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -60,6 +64,8 @@ def test_site_residuals_and_columns_equal_the_plain_model(name):
         rx, ry = jax.jit(site_residuals)(model, data)
         reference = np.asarray(px.residuals(model, obs)) * sqrt_w
         assert np.max(np.abs(np.stack([rx, ry], -1) - reference)) < 1e-14
+        if name not in JACOBIAN_CASES:
+            return
         params = model.free_parameters
         cols = jax.jit(lambda m, d: residual_columns(m, d, params))(model, data)
         jac = jax.jacfwd(lambda y: px.residuals(model.with_values(y, "free"), obs) * sqrt_w)(model.values("free"))
