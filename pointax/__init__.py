@@ -16,7 +16,6 @@ from .command import Command, command, command_reflector, reflect_normal
 from .compare import Comparison, ModelBuild, build_model, compare
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
-from .network import fit_network
 from .model import AltAz, Model, ParameterInfo, Turntable
 from .mount_models import XY, XY_FAMILIES, Equatorial, xy_family
 from .mounts import (
@@ -29,6 +28,7 @@ from .mounts import (
     TurntableMount,
     XYMount,
 )
+from .network import fit_network
 from .observations import Observations
 from .shared import SharedFit, fit_shared
 from .simulate import simulate

@@ -24,10 +24,10 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import ArrayLike, Float
 
-from ._x64 import float64
-from .fit import FitResult, _check_convention, _fit, check_options
-from .model import Model
 from . import normal_equations
+from ._x64 import float64
+from .fit import FitResult, _check_convention, _fit, check_options, least_squares_result
+from .model import Model
 from .normal_equations import NormalCholesky
 from .observations import Observations
 from .site import SiteData, residual_function, site_data, site_residuals
@@ -144,43 +144,16 @@ def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, 
     # which is below the tolerances: the difference is of the order of that update).
     cols = normal_equations.columns(state.f_info.jac)
     low, pivots = normal_equations.cholesky(normal_equations.normal_matrix(cols))
-    n_obs = jnp.sum(data.used)
     m = len(params)
-    sky_rms = jnp.sqrt((jnp.sum(rw[0] ** 2) + jnp.sum(rw[1] ** 2)) / n_obs)
-    popn_sd = jnp.where(n_obs > m, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - m, 1)), jnp.inf)
-    cov = normal_equations.inverse(low) * sky_rms**2 if m else jnp.zeros((0, 0))
-    sigmas = jnp.sqrt(jnp.diag(cov))
-    safe = jnp.where(sigmas == 0, 1.0, sigmas)
-    corr = cov / (safe[:, None] * safe[None, :])
     f_change = jnp.concatenate([a - b for a, b in zip(rw, before)])
     f_now = jnp.concatenate(rw)
     small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y)) & jnp.all(jnp.abs(f_change) <= atol + rtol * jnp.abs(f_now))
-    finite = jnp.all(jnp.isfinite(f_now)) & jnp.all(jnp.isfinite(y))
-    converged = small & finite
     suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
-    result = optx.RESULTS.where(converged, optx.RESULTS.successful, optx.RESULTS.nonlinear_max_steps_reached)
-    return FitResult(
-        model=fitted,
-        values=y,
-        sigmas=sigmas,
-        covariance=cov,
-        correlation=corr,
-        residuals=r,
-        used=data.used,
-        n_obs=n_obs,
-        sky_rms=sky_rms,
-        popn_sd=popn_sd,
-        iterations=jnp.asarray(steps),
-        converged=converged,
-        result=result,
-        degenerate=jnp.zeros((m,), bool),
-        outliers=jnp.zeros(data.used.shape, bool),
-        robust_scale=jnp.asarray(0.0),
-        robust_converged=jnp.asarray(True),
-        names=tuple(p.name for p in params),
-        units=tuple(p.unit for p in params),
-        solver="gauss-newton",
-    ), suspect
+    unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
+    result = least_squares_result(
+        fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps, small, "gauss-newton"
+    )
+    return result, suspect
 
 
 @eqx.filter_jit

@@ -90,8 +90,8 @@ from .io import (
 from .model import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .network import add_fit_network_parser, run_fit_network
-from .sunsensor.cli import add_centroid_parser, run_centroid
 from .rotations import azel_to_enu_numpy
+from .sunsensor.cli import add_centroid_parser, run_centroid
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .units import UNITS
 

@@ -498,6 +498,62 @@ def _fit(
 _fit_jit = eqx.filter_jit(_fit)
 
 
+def least_squares_result(
+    fitted: Model,
+    values: Float[Array, " m"],
+    unit_covariance: Float[Array, "m m"],
+    residuals: Float[Array, "n 2"],
+    weighted: Float[Array, "n 2"],
+    used: Bool[Array, " n"],
+    iterations,
+    converged: Bool[Array, ""],
+    solver: str,
+    scale: Float[Array, ""] | None = None,
+) -> FitResult:
+    """A least-squares :class:`FitResult` with TPOINT's statistics, for fits that are not
+    :func:`fit`'s own (the batched fast path, the shared-parameter fit).
+
+    Args:
+        fitted: the model with the fitted values; ``values`` its free parameters.
+        unit_covariance: ``(J^T J)^-1`` of the weighted residuals.
+        residuals, weighted: ``(n, 2)`` residuals, plain and times the square roots of
+            the normalised weights (0 for unused observations).
+        scale: the standard deviation the covariance is scaled by (default: this fit's
+            Sky RMS, as TPOINT's sigmas).
+    """
+    params = fitted.free_parameters
+    m = len(params)
+    n_obs = jnp.sum(used)
+    sky_rms = jnp.sqrt(jnp.sum(weighted**2) / n_obs)
+    popn_sd = jnp.where(n_obs > m, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - m, 1)), jnp.inf)
+    cov = unit_covariance * (sky_rms if scale is None else scale) ** 2
+    sigmas = jnp.sqrt(jnp.diag(cov))
+    safe = jnp.where(sigmas == 0, 1.0, sigmas)
+    ok = converged & jnp.all(jnp.isfinite(values)) & jnp.isfinite(sky_rms)
+    return FitResult(
+        model=fitted,
+        values=values,
+        sigmas=sigmas,
+        covariance=cov,
+        correlation=cov / (safe[:, None] * safe[None, :]),
+        residuals=residuals,
+        used=used,
+        n_obs=n_obs,
+        sky_rms=sky_rms,
+        popn_sd=popn_sd,
+        iterations=jnp.asarray(iterations),
+        converged=ok,
+        result=optx.RESULTS.where(ok, optx.RESULTS.successful, optx.RESULTS.nonlinear_max_steps_reached),
+        degenerate=jnp.zeros((m,), bool),
+        outliers=jnp.zeros(used.shape, bool),
+        robust_scale=jnp.asarray(0.0),
+        robust_converged=jnp.asarray(True),
+        names=tuple(p.name for p in params),
+        units=tuple(p.unit for p in params),
+        solver=solver,
+    )
+
+
 @float64
 def fit(
     model: Model,

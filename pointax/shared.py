@@ -39,7 +39,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from . import normal_equations as ne
 from ._x64 import float64
 from .batch import _batched, fit_batch, site_statuses
-from .fit import FitResult, _check_convention
+from .fit import FitResult, _check_convention, least_squares_result
 from .model import Model
 from .observations import Observations
 from .site import SiteData, residual_columns, site_data, site_residuals
@@ -364,35 +364,12 @@ def _site_results(model, own_params, shared_params, y, p, site_cov, data: SiteDa
 
     def one(ys, cov, d):
         fitted = model._replace(params, [ys[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
-        rw = site_residuals(fitted, d)
-        r = jnp.stack(site_residuals(fitted, d, weighted=False), axis=-1)
-        n_obs = jnp.sum(d.used)
-        sky_rms = jnp.sqrt((jnp.sum(rw[0] ** 2) + jnp.sum(rw[1] ** 2)) / n_obs)
-        popn_sd = jnp.where(n_obs > m, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - m, 1)), jnp.inf)
-        sigmas = jnp.sqrt(jnp.diag(cov))
-        safe = jnp.where(sigmas == 0, 1.0, sigmas)
-        ok = converged & jnp.all(jnp.isfinite(ys)) & jnp.isfinite(sky_rms)
-        return FitResult(
-            model=fitted,
-            values=ys,
-            sigmas=sigmas,
-            covariance=cov,
-            correlation=cov / (safe[:, None] * safe[None, :]),
-            residuals=r,
-            used=d.used,
-            n_obs=n_obs,
-            sky_rms=sky_rms,
-            popn_sd=popn_sd,
-            iterations=jnp.asarray(iterations),
-            converged=ok,
-            result=optx.RESULTS.where(ok, optx.RESULTS.successful, optx.RESULTS.nonlinear_max_steps_reached),
-            degenerate=jnp.zeros((m,), bool),
-            outliers=jnp.zeros(d.used.shape, bool),
-            robust_scale=jnp.asarray(0.0),
-            robust_converged=jnp.asarray(True),
-            names=tuple(q.name for q in own_params),
-            units=tuple(q.unit for q in own_params),
-            solver="gauss-newton",
+        fitted = fitted.fix(*(q.name for q in shared_params))
+        r = site_residuals(fitted, d, weighted=False)
+        rw = jnp.stack([part * d.sqrt_weight for part in r], axis=-1)
+        # cov is already scaled by the Sky RMS of all sites together.
+        return least_squares_result(
+            fitted, ys, cov, jnp.stack(r, axis=-1), rw, d.used, iterations, converged, "gauss-newton", scale=1.0
         )
 
     return jax.vmap(one)(y, site_cov, data)

@@ -21,12 +21,12 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from . import camera, rigorous, sun_vector, xy
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
-from . import camera, rigorous, sun_vector, xy
-from .camera import CameraMounting
 from .base import Term, param, param_fields, param_unit
+from .camera import CameraMounting
 from .gpoint import GPOINT_ALTAZ_TERMS, GpointExtra, GpointTerm, gpoint_extra
 from .harmonic import (
     Harmonic,
