@@ -6,10 +6,13 @@ and parameters, per-site status.
     result.converged                                               # (S,) per site
     px.site_result(result, 7).report()                             # one site's report
 
-Each site is the pure fit of :func:`pointax.fit` (``jax.vmap`` over sites): a site whose
-data are bad (NaN in a used row, degenerate geometry, wild outliers) or whose fit
-diverges is flagged by its own ``converged`` and ``message`` and changes nothing for
-the others. Padding rows carry weight 0 and do not enter any statistic.
+Every site first gets a fixed number of optimistix Gauss-Newton steps on the structured
+evaluation of :mod:`pointax.site` (``jax.vmap`` over sites, chunks of sites per compiled
+call); a site that does not converge there is refitted with :func:`pointax.fit`'s full
+loop. A site whose data are bad (NaN in a used row, degenerate geometry, wild outliers)
+or whose fit diverges is flagged by its own ``converged`` and ``message`` and changes
+nothing for the others. Padding rows carry weight 0 and do not enter any statistic.
+Parameters shared by all sites: :func:`pointax.fit_shared`.
 """
 
 from __future__ import annotations
