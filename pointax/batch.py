@@ -103,6 +103,24 @@ def site_statuses(result: FitResult) -> list[dict[str, str]]:
     return out
 
 
+def check_batch(observations) -> None:
+    """Raise ValueError unless ``observations`` is a batch ``(S, N, ...)``."""
+    if not isinstance(observations, Observations) or np.ndim(observations.encoder) != 3:
+        raise ValueError("observations must be a batch of shape (S, N, ...): build it with pointax.stack_observations")
+
+
+def start_values(model: Model, n_sites: int, values, what: str = "free parameters") -> np.ndarray:
+    """``(S, M)`` starting values of ``model``'s free parameters per site, float64: the
+    model's own values for every site when ``values`` is None; ValueError for a wrong shape."""
+    n_free = len(model.free_parameters)
+    if values is None:
+        values = np.broadcast_to(np.asarray(model.values("free"), np.float64), (n_sites, n_free))
+    values = np.asarray(values, np.float64)
+    if values.shape != (n_sites, n_free):
+        raise ValueError(f"values must have shape ({n_sites}, {n_free}) (sites, {what}), got {values.shape}")
+    return values
+
+
 def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float) -> FitResult:
     """One site: exactly ``steps`` optimistix Gauss-Newton steps (no early exit: under
     ``vmap`` every site would run as long as the slowest anyway) with the structured
@@ -263,18 +281,12 @@ def fit_batch(
         solver.
     """
     check_options(solver, loss, loss_scale, reject)
-    if not isinstance(observations, Observations) or np.ndim(observations.encoder) != 3:
-        raise ValueError("observations must be a batch of shape (S, N, ...): build it with pointax.stack_observations")
+    check_batch(observations)
     if int(steps) < 0:
         raise ValueError(f"steps must be >= 0, got {steps!r}")
     _check_convention(model, observations)
     n_sites = observations.encoder.shape[0]
-    n_free = len(model.free_parameters)
-    if values is None:
-        values = np.broadcast_to(np.asarray(model.values("free"), np.float64), (n_sites, n_free))
-    values = np.asarray(values, np.float64)
-    if values.shape != (n_sites, n_free):
-        raise ValueError(f"values must have shape ({n_sites}, {n_free}) (sites, free parameters), got {values.shape}")
+    values = start_values(model, n_sites, values)
     model = model.with_values(model.values())
     fast = int(steps) > 0 and loss == "linear"
     site_obs = _batched(

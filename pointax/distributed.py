@@ -34,7 +34,7 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from ._x64 import float64
-from .batch import fit_batch
+from .batch import check_batch, fit_batch, start_values
 from .fit import FitResult, check_options
 from .model import Model
 from .observations import Observations
@@ -124,20 +124,14 @@ def fit_batch_distributed(
     check_options(
         options.get("solver", "lm"), options.get("loss", "linear"), options.get("loss_scale"), options.get("reject", 3.0)
     )
-    if not isinstance(observations, Observations) or np.ndim(observations.encoder) != 3:
-        raise ValueError("observations must be a batch of shape (S, N, ...): build it with pointax.stack_observations")
+    check_batch(observations)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
         raise ValueError(f"chunk_size must be a positive number of sites, got {chunk_size!r}")
     encoder = np.asarray(observations.encoder, np.float64)
     target = np.asarray(observations.target, np.float64)
     weight = np.asarray(observations.weight, np.float64)
     n_sites = encoder.shape[0]
-    n_free = len(model.free_parameters)
-    if values is None:
-        values = np.broadcast_to(np.asarray(model.values("free"), np.float64), (n_sites, n_free))
-    values = np.asarray(values, np.float64)
-    if values.shape != (n_sites, n_free):
-        raise ValueError(f"values must have shape ({n_sites}, {n_free}) (sites, free parameters), got {values.shape}")
+    values = start_values(model, n_sites, values)
     size = max(1, min(int(chunk_size), n_sites))
     shipped_model = _to_numpy(model)
 

@@ -38,7 +38,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from . import normal_equations as ne
 from ._x64 import float64
-from .batch import _batched, fit_batch, site_statuses
+from .batch import _batched, check_batch, fit_batch, site_statuses, start_values
 from .fit import FitResult, _check_convention, least_squares_result
 from .model import Model
 from .observations import Observations
@@ -304,19 +304,14 @@ def fit_shared(
         raise ValueError(f"shared parameters {unknown} are not free parameters of the model ({free})")
     if not shared:
         raise ValueError("no shared parameter given: use pointax.fit_batch")
-    if not isinstance(observations, Observations) or np.ndim(observations.encoder) != 3:
-        raise ValueError("observations must be a batch of shape (S, N, ...): build it with pointax.stack_observations")
+    check_batch(observations)
     _check_convention(model, observations)
     model = model.with_values(model.values())
     alone = model.fix(*shared)
     own_params = alone.free_parameters
     shared_params = tuple(p for p in model.free_parameters if p.name in shared)
     n_sites = observations.encoder.shape[0]
-    if values is None:
-        values = np.broadcast_to(np.asarray(alone.values("free")), (n_sites, len(own_params)))
-    values = np.asarray(values, np.float64)
-    if values.shape != (n_sites, len(own_params)):
-        raise ValueError(f"values must have shape ({n_sites}, {len(own_params)}) (sites, own free parameters), got {values.shape}")
+    values = start_values(alone, n_sites, values, "own free parameters")
     first = fit_batch(alone, observations, values=values, steps=steps, chunk_size=chunk_size)
     statuses = site_statuses(first)
     included = np.array([s["status"] == "converged" for s in statuses])
