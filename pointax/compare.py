@@ -1233,7 +1233,7 @@ def build_model(
             continue
         names.add(t.name)
         chosen.append(t)
-    superset = Model(start.mount, start.terms + tuple(chosen), start.fixed, start.sky_iterations)
+    superset = start.with_terms(*chosen)
     superset = superset.set(**{p.name: 0.0 for p in superset.parameters[len(start.parameters) :]})
     cos2 = _cos_axis2(start.mount, scheme.obs, _per_axis(start.mount, per_axis))
     builder = _Builder(superset, scheme, cos2)
@@ -1327,7 +1327,7 @@ def build_model(
         i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))
     ]
     fitted = superset.with_values(jnp.asarray(state.y), "free")
-    model = Model(start.mount, [fitted.terms[i] for i in final_terms], start.fixed, start.sky_iterations)
+    model = start.restructured(terms=[fitted.terms[i] for i in final_terms])
     cols = builder.cols(state.active)
     free = superset.free_parameters
     rules = (

@@ -38,7 +38,7 @@ from jaxtyping import Array, Bool, Float, Int
 from ._x64 import float64
 from .model import Model
 from .observations import Observations
-from .rotations import tangent_offset
+from .rotations import tangent_offset, wrap_pi
 from .units import ARCSEC, UNITS
 
 __all__ = ["fit", "FitResult", "SOLVERS", "LOSSES", "residuals", "CORRELATION_WARNING", "robust_sigma", "check_options", "prepare"]
@@ -341,10 +341,13 @@ def _check_convention(model: Model, obs: Observations) -> None:
 
 
 def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
-    """Observed minus model on the sky, ``(n, 2)`` (cross-elevation, elevation) radians.
+    """Observed minus model on the sky, ``(n, 2)`` (cross-elevation, elevation) radians,
+    as the model's :attr:`~pointax.Model.residual_form` defines them.
 
     Pure JAX; observations with weight 0 give 0 (and may hold NaN).
     """
+    if model.residual_form == "tpoint":
+        return _tpoint_residuals(model, obs)
     used = obs.weight > 0
     encoder = jnp.where(used[:, None], obs.encoder, 0.0)
     # Targets into the mount frame (F is orthogonal, so its inverse is its transpose).
@@ -354,6 +357,29 @@ def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     predicted = jax.vmap(model.mount_direction)(encoder)
     predicted = jnp.where(used[:, None], predicted, at_rest)
     r = -tangent_offset(predicted, target)
+    return jnp.where(used[:, None], r, 0.0)
+
+
+def _tpoint_residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
+    """TPOINT's residuals ``(dA cos E, dE)``: ``d`` = observed angles minus the chain's
+    angles minus the sky offsets evaluated at the observed angles (see
+    :class:`pointax.Model`)."""
+    mount = model.mount
+    used = obs.weight > 0
+    # Unused rows (maybe NaN) take the first used row: a place where no term has a pole.
+    first = jnp.argmax(used)
+    encoder = jnp.where(used[:, None], obs.encoder, obs.encoder[first])
+    target = jnp.where(used[:, None], jnp.asarray(obs.target), jnp.asarray(obs.target)[first]) @ mount.frame
+
+    def one(reading, direction):
+        d, angles = model.chain_direction(reading)
+        chain = mount.angles_of(d, near=angles)
+        observed = mount.angles_of(direction, near=mount.axis_angles(reading))
+        offset = model._sky_offset(observed)
+        diff = observed - chain if offset is None else observed - chain - offset
+        return jnp.stack([wrap_pi(diff[0]) * jnp.cos(observed[1]), diff[1]])
+
+    r = jax.vmap(one)(encoder, target)
     return jnp.where(used[:, None], r, 0.0)
 
 

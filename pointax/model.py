@@ -12,13 +12,16 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
-from .mounts import AltAzMount, Mount, TurntableMount
+from .mounts import AltAzMount, Mount, SphericalMount, TurntableMount
 from .observations import Observations
 from .terms import turntable as turntable_terms
 from .terms.base import Term, param_fields, param_unit
 from .terms.sun_vector import estimate_zeros
 
-__all__ = ["Model", "ParameterInfo", "AltAz", "Turntable"]
+__all__ = ["Model", "ParameterInfo", "AltAz", "Turntable", "RESIDUAL_FORMS"]
+
+RESIDUAL_FORMS = ("sky", "tpoint")
+"""What a fit minimises (:attr:`Model.residual_form`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,12 +49,28 @@ class Model(eqx.Module):
         sky_iterations: fixed-point iterations that place sky offsets at the corrected
             position (each contracts the error by a factor of about the largest
             offset derivative, ~1e-4 for real models: 3 is ample).
+        residual_form: what a fit minimises; the model itself (:meth:`direction`,
+            :func:`pointax.command`) is the same either way.
+
+            * ``"sky"`` (default): the tangent-plane offset of the observed direction
+              from where the model points, sky offsets evaluated at the sky position
+              the model reaches (a fixed point). Exact, with no pole.
+            * ``"tpoint"``: TPOINT's own residuals, ``(dA cos E, dE)`` with ``d`` the
+              observed angles minus the chain's angles plus the sky offsets evaluated
+              *at the observed position* (DESIGN.md: this is the least-squares problem
+              TPOINT solves). Linear in the coefficients of TPOINT's linear-form terms,
+              so a fit of them is one linear solve; the fitted values differ from
+              ``"sky"``'s at second order (4e-9 rad = 0.0009" on the MMT run,
+              ``tests/test_residual_form.py``; 1e-8 rad with offsets of 100",
+              ``benchmarks/batch_fit.py``).
+              Needs a mount with spherical angles (alt-az, X-Y, equatorial).
     """
 
     mount: Mount
     terms: tuple[Term, ...]
     fixed: frozenset[str] = eqx.field(static=True, default=frozenset())
     sky_iterations: int = eqx.field(static=True, default=3)
+    residual_form: str = eqx.field(static=True, default="sky")
 
     def __init__(
         self,
@@ -59,11 +78,20 @@ class Model(eqx.Module):
         terms: Iterable[Term] = (),
         fixed: Iterable[str] = (),
         sky_iterations: int = 3,
+        residual_form: str = "sky",
     ):
         self.mount = mount
         self.terms = tuple(terms)
         self.fixed = frozenset(fixed)
         self.sky_iterations = int(sky_iterations)
+        self.residual_form = residual_form
+        if residual_form not in RESIDUAL_FORMS:
+            raise ValueError(f"residual_form must be one of {RESIDUAL_FORMS}, got {residual_form!r}")
+        if residual_form == "tpoint" and not isinstance(mount, SphericalMount):
+            raise ValueError(
+                f"residual_form='tpoint' needs a mount with spherical angles (alt-az, X-Y, "
+                f"equatorial); {type(mount).__name__} has none: use residual_form='sky'"
+            )
         for t in self.terms:
             if not isinstance(t, Term):
                 hint = " (build terms with pointax.terms.tpoint(...))" if isinstance(t, str) else ""
@@ -152,24 +180,33 @@ class Model(eqx.Module):
                 raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
         return self._replace([info[n] for n in values], values.values())
 
+    def restructured(self, terms: Iterable[Term] | None = None, fixed: Iterable[str] | None = None) -> "Model":
+        """A copy with other ``terms`` and/or ``fixed`` names, everything else kept."""
+        terms = self.terms if terms is None else terms
+        fixed = self.fixed if fixed is None else fixed
+        return Model(self.mount, terms, fixed, self.sky_iterations, self.residual_form)
+
+    def with_residual_form(self, residual_form: str) -> "Model":
+        """A copy whose fits minimise ``residual_form`` residuals ('sky' or 'tpoint')."""
+        return Model(self.mount, self.terms, self.fixed, self.sky_iterations, residual_form)
+
     def fix(self, *names: str) -> "Model":
         """A copy with ``names`` held fixed in fits."""
-        return Model(self.mount, self.terms, self.fixed | set(names), self.sky_iterations)
+        return self.restructured(fixed=self.fixed | set(names))
 
     def free(self, *names: str) -> "Model":
         """A copy with ``names`` fitted again (all parameters if no name is given)."""
-        fixed = frozenset() if not names else self.fixed - set(names)
-        return Model(self.mount, self.terms, fixed, self.sky_iterations)
+        return self.restructured(fixed=frozenset() if not names else self.fixed - set(names))
 
     def with_terms(self, *terms: Term) -> "Model":
         """A copy with ``terms`` appended."""
-        return Model(self.mount, self.terms + tuple(terms), self.fixed, self.sky_iterations)
+        return self.restructured(terms=self.terms + tuple(terms))
 
     def without_terms(self, *names: str) -> "Model":
         """A copy without the terms called ``names``."""
         keep = tuple(t for t in self.terms if t.name not in names)
         kept = {p.name for p in self.parameters if self.terms[p.term].name not in names}
-        return Model(self.mount, keep, self.fixed & kept, self.sky_iterations)
+        return self.restructured(terms=keep, fixed=self.fixed & kept)
 
     # ----------------------------------------------------------------- evaluation
 
@@ -212,11 +249,10 @@ class Model(eqx.Module):
             offset = jax.vmap(self._sky_offset)
         return jax.lax.fori_loop(0, self.sky_iterations, lambda _, sky: chain_angles + offset(sky), chain_angles)
 
-    def mount_direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
-        """Pointing direction in the *mount* frame for one observation's raw encoder
-        angles (radians). Use :meth:`direction` for East-North-Up."""
-        encoder = jnp.asarray(encoder)
-        angles = self.corrected_encoder(encoder)
+    def chain_direction(self, encoder: Float[Array, "2"]) -> tuple[Float[Array, "3"], Float[Array, "2"]]:
+        """Where the chain of rotations points, before any sky offset: ``(direction in
+        the mount frame, corrected axis angles)`` for one observation's raw reading."""
+        angles = self.corrected_encoder(jnp.asarray(encoder))
         mount = self.mount
         # Rotate the boresight vector from the right: matrix-vector products only.
         d = self._apply("boresight_rotation", angles, mount.boresight)
@@ -224,10 +260,16 @@ class Model(eqx.Module):
         d = self._apply("axes_rotation", angles, d)
         d = mount.axis1(angles[0]) @ d
         d = self._apply("base_rotation", angles, d)
+        return d, angles
+
+    def mount_direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
+        """Pointing direction in the *mount* frame for one observation's raw encoder
+        angles (radians). Use :meth:`direction` for East-North-Up."""
+        d, angles = self.chain_direction(encoder)
         if self._sky_offset(angles) is None:
             return d
-        chain_angles = mount.angles_of(d, near=angles)
-        return mount.direction(self.sky_position(chain_angles))
+        chain_angles = self.mount.angles_of(d, near=angles)
+        return self.mount.direction(self.sky_position(chain_angles))
 
     def sky_angles(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
         """Where the mount points, as angles in the mount's convention (one observation)."""
@@ -252,7 +294,12 @@ class Model(eqx.Module):
         return f"{type(self.mount).__name__}({getattr(self.mount, 'convention', '') or ''}): {names}"
 
 
-def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fixed: Iterable[str] = ()) -> Model:
+def AltAz(
+    terms: Sequence[Term] | Iterable[Term] = (),
+    azimuth: str = "N-E",
+    fixed: Iterable[str] = (),
+    residual_form: str = "sky",
+) -> Model:
     """An alt-az telescope model: :class:`AltAzMount` with ``terms``.
 
     Args:
@@ -261,8 +308,10 @@ def AltAz(terms: Sequence[Term] | Iterable[Term] = (), azimuth: str = "N-E", fix
             :class:`pointax.AltAzMount`). Use the convention of your data
             (``run.azimuth`` for a run read by :func:`pointax.io.read_tpoint`).
         fixed: names of parameters held fixed in fits.
+        residual_form: 'sky' (exact, default) or 'tpoint' (TPOINT's own residuals:
+            see :class:`Model`).
     """
-    return Model(AltAzMount(azimuth=azimuth), terms, fixed)
+    return Model(AltAzMount(azimuth=azimuth), terms, fixed, residual_form=residual_form)
 
 
 

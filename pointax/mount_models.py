@@ -57,7 +57,9 @@ def _terms(terms: str | Iterable[Term]) -> tuple[Term, ...]:
     return tuple(terms)
 
 
-def XY(terms: str | Sequence[Term] | Iterable[Term] = (), fixed: Iterable[str] = ()) -> Model:
+def XY(
+    terms: str | Sequence[Term] | Iterable[Term] = (), fixed: Iterable[str] = (), residual_form: str = "sky"
+) -> Model:
     """An X-Y mount model: :class:`pointax.XYMount` with ``terms``.
 
     Encoder readings are ``(L, B)`` in radians (observations with convention 'xy');
@@ -69,14 +71,17 @@ def XY(terms: str | Sequence[Term] | Iterable[Term] = (), fixed: Iterable[str] =
             'linearised') or a sequence of terms (:mod:`pointax.terms.xy`, or your own
             :class:`pointax.Term` written in the X-Y mount's frame).
         fixed: names of parameters held fixed in fits.
+        residual_form: 'sky' (exact, default) or 'tpoint' (angle residuals with sky
+            offsets at the observed position: see :class:`pointax.Model`).
     """
-    return Model(XYMount(), _terms(terms), fixed)
+    return Model(XYMount(), _terms(terms), fixed, residual_form=residual_form)
 
 
 def Equatorial(
     terms: Sequence[Term] | Iterable[Term] = (),
     latitude: Float[ArrayLike, ""] = None,
     fixed: Iterable[str] = (),
+    residual_form: str = "sky",
 ) -> Model:
     """An equatorial mount model: :class:`pointax.EquatorialMount` at ``latitude`` with
     ``terms``.
@@ -95,7 +100,9 @@ def Equatorial(
             and ``AW`` tilts of the polar axis.
         latitude: the site's latitude, radians (North positive), required.
         fixed: names of parameters held fixed in fits.
+        residual_form: 'sky' (exact, default) or 'tpoint' (angle residuals with sky
+            offsets at the observed position: see :class:`pointax.Model`).
     """
     if latitude is None:
         raise ValueError("Equatorial: give the site's latitude in radians, e.g. latitude=pointax.deg(31.7)")
-    return Model(EquatorialMount(latitude), tuple(terms), fixed)
+    return Model(EquatorialMount(latitude), tuple(terms), fixed, residual_form=residual_form)

@@ -276,7 +276,7 @@ def fit_shared(
     shared: Sequence[str],
     *,
     values: Float[ArrayLike, "S M"] | None = None,
-    steps: int = 5,
+    steps: int | None = None,
     max_steps: int = 64,
     rtol: float = 1e-10,
     atol: float = 1e-13,

@@ -39,9 +39,9 @@ from jaxtyping import Array, Bool, Float
 
 from .model import Model, ParameterInfo
 from .observations import Observations
-from .rotations import enu_to_azel
+from .rotations import enu_to_azel, wrap_pi
 
-__all__ = ["SiteData", "site_data", "site_residuals", "residual_columns", "residual_function"]
+__all__ = ["SiteData", "site_data", "site_residuals", "residual_columns", "residual_function", "is_affine"]
 
 _HOOKS = ("boresight_rotation", "axes_rotation", "base_rotation")
 
@@ -51,20 +51,30 @@ class SiteData(eqx.Module):
 
     Attributes:
         nominal: ``(n, 2)`` nominal axis angles (:meth:`pointax.Mount.axis_angles`).
-        trig: four ``(n,)`` arrays: cos and sin of the nominal axis-1 angle, cos and sin of axis 2.
-        target_trig: four ``(n,)`` arrays: cos and sin of the observed directions' azimuth, cos and
-            sin of their elevation, in the mount frame (the direction and its
-            tangent-plane basis, :func:`pointax.rotations.tangent_basis`, follow).
+        trig: four ``(n,)`` arrays: cos and sin of the nominal axis-1 angle, cos and sin
+            of axis 2 (None for ``residual_form="tpoint"`` when no term turns the chain).
+        target_trig: for ``residual_form="sky"`` (else None): four ``(n,)`` arrays: cos
+            and sin of the observed directions' azimuth, cos and sin of their elevation,
+            in the mount frame (the direction and its tangent-plane basis,
+            :func:`pointax.rotations.tangent_basis`, follow).
         sqrt_weight: ``(n,)`` square roots of the weights normalised to mean 1 over the
             used observations (0 for unused ones).
         used: ``(n,)`` observations with positive weight.
+        observed: for ``residual_form="tpoint"`` (else None): the observed directions'
+            angles in the mount's convention, as two ``(n,)`` arrays, and the cosine of
+            the second.
+        sky_basis: for ``residual_form="tpoint"`` (else None): per parameter of the
+            terms with ``linear_sky_offset``, in model order, its sky offset per unit
+            at the observed angles as two ``(n,)`` arrays.
     """
 
     nominal: Float[Array, "n 2"]
-    trig: tuple[Float[Array, " n"], ...]
-    target_trig: tuple[Float[Array, " n"], ...]
+    trig: tuple[Float[Array, " n"], ...] | None
+    target_trig: tuple[Float[Array, " n"], ...] | None
     sqrt_weight: Float[Array, " n"]
     used: Bool[Array, " n"]
+    observed: tuple[Float[Array, " n"], ...] | None = None
+    sky_basis: tuple[tuple[Float[Array, " n"], Float[Array, " n"]], ...] | None = None
 
 
 def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = None) -> SiteData:
@@ -85,13 +95,54 @@ def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = 
     reading = jnp.where(used[:, None], obs.encoder, obs.encoder[first])
     nominal = jax.vmap(mount.axis_angles)(reading)
     target = jnp.where(used[:, None], jnp.asarray(obs.target), jnp.asarray(obs.target)[first]) @ mount.frame
-    az, el = enu_to_azel(target)  # as tangent_basis takes them
     weight = jnp.where(used, obs.weight, 0.0)
     weight = weight * jnp.sum(used) / jnp.sum(weight)
+    # Only what the residual form needs (transcendentals dominate this call's cost).
     # Separate arrays, not one (4, n) array: slices of a stacked array cost copies.
-    trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
-    target_trig = (jnp.cos(az), jnp.sin(az), jnp.cos(el), jnp.sin(el))
-    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used)
+    trig = target_trig = observed = sky_basis = None
+    tpoint = model.residual_form == "tpoint"
+    if not tpoint or _rotated(model, nominal):
+        trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
+    if tpoint:
+        angles = jax.vmap(mount.angles_of)(target, nominal)
+        observed = (angles[:, 0], angles[:, 1], jnp.cos(angles[:, 1]))
+        sky_basis = tuple(_unit_offsets(model, angles))
+    else:
+        az, el = enu_to_azel(target)  # as tangent_basis takes them
+        target_trig = (jnp.cos(az), jnp.sin(az), jnp.cos(el), jnp.sin(el))
+    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, observed, sky_basis)
+
+
+def is_affine(model: Model) -> bool:
+    """Whether the model's fit residuals are affine in its free parameters: TPOINT's
+    residual form with every free parameter in a term whose ``linear_sky_offset``
+    holds (the chain and the other terms are then fixed). Decided from the structure,
+    while tracing."""
+    return model.residual_form == "tpoint" and all(
+        model.terms[p.term].linear_sky_offset for p in model.free_parameters
+    )
+
+
+def _linear_sky_parameters(model: Model) -> list[tuple[int, str]]:
+    """``(term index, field)`` of every parameter of the terms with ``linear_sky_offset``."""
+    return [(p.term, p.field) for p in model.parameters if model.terms[p.term].linear_sky_offset]
+
+
+def _unit_offsets(model: Model, angles: Float[Array, "n 2"]):
+    """Per parameter of :func:`_linear_sky_parameters`: its term's sky offset per unit
+    of it at ``angles``, ``(d axis 1, d axis 2)``."""
+    for index, field in _linear_sky_parameters(model):
+        term = model.terms[index]
+        value = jnp.asarray(getattr(term, field), float)
+
+        def offset(x, a, field=field, term=term):
+            out = eqx.tree_at(lambda t: getattr(t, field), term, x).sky_offset(a)
+            if out is None:
+                raise TypeError(f"{term.name} says linear_sky_offset but has no sky_offset")
+            return out
+
+        unit = jax.vmap(lambda a: jax.jvp(lambda x: offset(x, a), (value,), (jnp.ones_like(value),))[1])(angles)
+        yield unit[:, 0], unit[:, 1]
 
 
 # ------------------------------------------------------------------ 3x3 algebra on entries
@@ -259,16 +310,29 @@ def _apply_chain(matrices, v):
     return v if pending is None else _turn(pending, v)
 
 
-def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
-    """Pointing directions in the mount frame, as three ``(n,)`` arrays (x, y, z);
-    the same as ``jax.vmap(model.mount_direction)`` over the site's readings."""
-    mount = model.mount
-    nominal = data.nominal
+def _corrected(model: Model, nominal):
+    """``(angles, offset)``: the axis angles after the terms' encoder corrections, ``(n,
+    2)``, and the per-axis offsets of :func:`_encoder_offset`."""
     offset = _encoder_offset(model, nominal)
     angles = nominal
     for k in range(2):
         if offset[k][0] is not None:
             angles = angles.at[:, k].add(offset[k][0])
+    return angles, offset
+
+
+def _rotated(model: Model, angles) -> bool:
+    """Whether any term turns the chain (a rotation hook that is not None)."""
+    return any(getattr(t, h)(angles[0]) is not None for t in model.terms for h in _HOOKS)
+
+
+def _chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
+    """Where the chain of rotations points before any sky offset: ``(v, angles)`` with
+    ``v`` three ``(n,)`` arrays in the mount frame and ``angles`` the corrected axis
+    angles ``(n, 2)``."""
+    mount = model.mount
+    nominal = data.nominal
+    angles, offset = _corrected(model, nominal)
     cos1, sin1, cos2, sin2 = data.trig
     hooks = {h: _hook_matrices(model, h, angles) for h in _HOOKS}
     chain = (
@@ -282,16 +346,55 @@ def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
     v = _apply_chain(chain, v)
     n = nominal.shape[0]
     v = [jnp.broadcast_to(jnp.asarray(x, nominal.dtype), (n,)) for x in v]
+    return v, angles
+
+
+def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
+    """Pointing directions in the mount frame, as three ``(n,)`` arrays (x, y, z);
+    the same as ``jax.vmap(model.mount_direction)`` over the site's readings."""
+    v, angles = _chain_pointing(model, data)
     has_sky = any(_per_observation(t.sky_offset, angles)[0] is not None for t in model.terms)
     if not has_sky:
         return v
     # Pointing offsets at the sky position (TPOINT's linear form): per observation.
-    if any(hooks.values()):
-        chain_angles = jax.vmap(mount.angles_of)(jnp.stack(v, axis=-1), angles)
+    if _rotated(model, angles):
+        chain_angles = jax.vmap(model.mount.angles_of)(jnp.stack(v, axis=-1), angles)
     else:
         chain_angles = angles  # no rotation term in the chain: its direction's angles are these
-    d = jax.vmap(mount.direction)(model.sky_position(chain_angles))
+    d = jax.vmap(model.mount.direction)(model.sky_position(chain_angles))
     return [d[:, 0], d[:, 1], d[:, 2]]
+
+
+def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
+    """TPOINT's residuals ``(dA cos E, dE)`` unweighted (see :func:`pointax.residuals`):
+    the linear sky terms from their precomputed unit offsets, the others evaluated at
+    the observed angles."""
+    if data.observed is None:
+        raise ValueError("this SiteData was built for residual_form='sky': rebuild it with the model")
+    angles, _ = _corrected(model, data.nominal)
+    if _rotated(model, angles):
+        v, angles = _chain_pointing(model, data)
+        chain = jax.vmap(model.mount.angles_of)(jnp.stack(v, axis=-1), angles)
+    else:
+        chain = angles  # no rotation term in the chain: the angles are where it points
+    a1, a2, cos2 = data.observed
+    d1, d2 = a1 - chain[:, 0], a2 - chain[:, 1]
+    linear = _linear_sky_parameters(model)
+    if len(linear) != len(data.sky_basis):
+        raise ValueError("this SiteData was built for another model: rebuild it with the model")
+    for (index, field), (u1, u2) in zip(linear, data.sky_basis):
+        c = getattr(model.terms[index], field)
+        d1, d2 = d1 - c * u1, d2 - c * u2
+    observed = None
+    for term in model.terms:
+        if term.linear_sky_offset:
+            continue
+        if observed is None:
+            observed = jnp.stack([a1, a2], axis=-1)
+        off, _ = _per_observation(term.sky_offset, observed)
+        if off is not None:
+            d1, d2 = d1 - off[..., 0], d2 - off[..., 1]
+    return wrap_pi(d1) * cos2, d2
 
 
 def _boresight(mount) -> list:
@@ -307,14 +410,18 @@ def _boresight(mount) -> list:
 def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple[Array, Array]:
     """Observed minus model in the tangent plane, ``(cross-elevation, elevation)`` as two
     ``(n,)`` arrays (radians), times the square roots of the normalised weights unless
-    ``weighted=False``; 0 for unused observations."""
-    x, y, z = site_pointing(model, data)
-    ca, sa, ce, se = data.target_trig
-    # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
-    horizontal = x * sa + y * ca
-    inv_depth = 1.0 / (ce * horizontal + se * z)
-    rx = (y * sa - x * ca) * inv_depth
-    ry = (se * horizontal - ce * z) * inv_depth
+    ``weighted=False``; 0 for unused observations. The model's ``residual_form`` picks
+    which residuals (see :func:`pointax.residuals`)."""
+    if model.residual_form == "tpoint":
+        rx, ry = _tpoint_site_residuals(model, data)
+    else:
+        x, y, z = site_pointing(model, data)
+        ca, sa, ce, se = data.target_trig
+        # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
+        horizontal = x * sa + y * ca
+        inv_depth = 1.0 / (ce * horizontal + se * z)
+        rx = (y * sa - x * ca) * inv_depth
+        ry = (se * horizontal - ce * z) * inv_depth
     scale = data.sqrt_weight if weighted else 1.0
     return jnp.where(data.used, rx * scale, 0.0), jnp.where(data.used, ry * scale, 0.0)
 

@@ -23,7 +23,7 @@ first.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -66,7 +66,16 @@ class Term(eqx.Module):
 
     The parameter name shown in reports is :attr:`name` for a one-parameter term and
     ``name.field`` otherwise.
+
+    A term whose :meth:`sky_offset` is linear in its parameters (``coef x f(angles)``,
+    as every TPOINT linear-form term) may say so with ``linear_sky_offset = True``:
+    where the offset is evaluated at data-only angles (fits with
+    ``residual_form="tpoint"``), batched fits then compute ``f`` once per observation
+    instead of at every step. A wrong claim gives wrong fits, so leave it False unless
+    it holds exactly.
     """
+
+    linear_sky_offset: ClassVar[bool] = False
 
     @property
     def name(self) -> str:

@@ -51,6 +51,8 @@ TPOINT's harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their 
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
@@ -80,6 +82,7 @@ class LinearTerm(Term):
     """A TPOINT-style term: ``coef * basis(A, E)`` added to (A, E) at the sky position."""
 
     coef: float = param(0.0)
+    linear_sky_offset: ClassVar[bool] = True
 
     def basis(self, az: Float[Array, ""], el: Float[Array, ""]) -> tuple:
         """(dA, dE) per radian of coefficient: observed minus raw, TPOINT's sign."""

@@ -1,0 +1,211 @@
+"""TPOINT's own residual form (``residual_form="tpoint"``): terms at the observed
+position, residuals (dA cos E, dE).
+
+References: an ordinary least-squares fit of TPOINT's basis functions written out with
+numpy (``test_conformance._ols_reference``, DESIGN.md's definitions) and TPOINT's own
+model file for the MMT run; finite differences for derivatives; solo fits for batches.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import MMT_DAT, MMT_MOD
+from test_conformance import _ols_reference
+
+import pointax as px
+from pointax.site import is_affine, residual_function, site_data, site_residuals
+from pointax.terms.base import angle_pair
+
+ARCSEC = np.pi / 648000
+TERMS = "IA IE NPAE CA AN AW TF TX"
+
+
+@pytest.fixture(scope="module")
+def mmt():
+    return px.io.read_tpoint(MMT_DAT, azimuth="S-E")
+
+
+@pytest.fixture(scope="module")
+def tpoint_fit(mmt):
+    return px.fit(px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth, residual_form="tpoint"), mmt)
+
+
+def test_tpoint_form_is_the_linear_least_squares_fit(mmt, tpoint_fit):
+    x, sigma, rms, cov = _ols_reference(mmt)
+    assert tpoint_fit.converged
+    np.testing.assert_allclose(np.asarray(tpoint_fit.values), x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(tpoint_fit.sigmas), sigma, rtol=1e-8)
+    assert float(tpoint_fit.sky_rms) == pytest.approx(rms, rel=1e-10)
+    np.testing.assert_allclose(np.asarray(tpoint_fit.covariance), cov, rtol=1e-7, atol=1e-30)
+
+
+def test_tpoint_form_reproduces_tpoint(tpoint_fit):
+    tpoint = px.io.read_model(MMT_MOD)
+    for term in tpoint.terms:
+        assert tpoint_fit.value(term.name) == pytest.approx(term.value, abs=0.005), term.name
+        assert tpoint_fit.sigma(term.name) == pytest.approx(term.sigma, abs=0.005), term.name
+    assert float(tpoint_fit.sky_rms) / ARCSEC == pytest.approx(tpoint.sky_rms, abs=0.001)
+
+
+def test_the_two_forms_differ_at_second_order(mmt, tpoint_fit):
+    """Same model, two objectives: on a real run (offsets of tens of arcseconds) the
+    fitted values differ by a few 1e-9 rad (0.001")."""
+    sky = px.fit(px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth), mmt)
+    diff = np.max(np.abs(np.asarray(sky.values) - np.asarray(tpoint_fit.values)))
+    assert 1e-11 < diff < 1e-8
+
+
+class SkyWobble(px.Term):
+    """A user's sky offset that is not linear in its parameters (and says so)."""
+
+    amp: float = px.terms.param(0.0)
+    phase: float = px.terms.param(0.3, unit="rad")
+
+    def sky_offset(self, angles):
+        return angle_pair(self.amp * jnp.sin(angles[0] + self.phase), self.amp**2 * 1e3 * jnp.cos(angles[1]))
+
+
+def _mixed_models():
+    """Models mixing rotations, encoder offsets, linear and nonlinear sky offsets."""
+    tp = px.terms.tpoint("IA IE AN AW TF TX HESE2", values={"IA": 20 * ARCSEC, "AN": 8 * ARCSEC, "TF": 5 * ARCSEC})
+    rigorous = px.terms.tpoint("NPAE CA", form="rigorous", values={"NPAE": 12 * ARCSEC, "CA": -30 * ARCSEC})
+    wobble = SkyWobble(amp=6 * ARCSEC)
+    altaz = px.AltAz((*tp, *rigorous, wobble), azimuth="S-E", residual_form="tpoint")
+    xy = px.XY("basic", residual_form="tpoint")
+    xy = xy.with_values(np.asarray(xy.values()) + 20 * ARCSEC)
+    return {"alt-az": altaz, "xy": xy}
+
+
+@pytest.mark.parametrize("name", ["alt-az", "xy"])
+def test_site_evaluation_equals_the_generic_residuals(name):
+    model = _mixed_models()[name]
+    rng = np.random.default_rng(4)
+    n = 40
+    encoder = np.stack([rng.uniform(-3, 3, n), rng.uniform(0.3, 1.3, n)], axis=1)
+    obs = px.simulate(model, encoder, noise=5 * ARCSEC, seed=1)
+    weight = rng.uniform(0.5, 2, n)
+    weight[[5, 9]] = 0.0
+    enc = np.array(obs.encoder)
+    enc[5] = np.nan  # unused rows may hold NaN
+    obs = px.Observations(enc, obs.target, weight, obs.convention)
+    data = site_data(model, obs)
+    ours = np.stack([np.asarray(x) for x in site_residuals(model, data, weighted=False)], axis=-1)
+    generic = np.asarray(px.residuals(model, obs))
+    assert np.all(np.isfinite(ours)) and np.all(ours[[5, 9]] == 0)
+    np.testing.assert_allclose(ours, generic, rtol=0, atol=1e-15)
+
+
+def test_tpoint_residuals_by_hand():
+    """The generic residuals against a numpy transcription of TPOINT's definition."""
+    values = {"IA": 40 * ARCSEC, "IE": -15 * ARCSEC, "AN": 9 * ARCSEC, "TX": 2 * ARCSEC}
+    model = px.AltAz(px.terms.tpoint("IA IE AN TX", values=values), residual_form="tpoint")
+    rng = np.random.default_rng(0)
+    raw = np.stack([rng.uniform(0, 2 * np.pi, 20), rng.uniform(0.3, 1.4, 20)], axis=1)
+    observed = raw + rng.normal(0, 50 * ARCSEC, raw.shape)
+    obs = px.Observations(raw, px.rotations.azel_to_enu_numpy(observed[:, 0], observed[:, 1]))
+    A, E = observed.T
+    dA = (A - raw[:, 0] - (-values["IA"] - values["AN"] * np.sin(A) * np.tan(E)) + np.pi) % (2 * np.pi) - np.pi
+    dE = E - raw[:, 1] - (values["IE"] - values["AN"] * np.cos(A) - values["TX"] / np.tan(E))
+    np.testing.assert_allclose(np.asarray(px.residuals(model, obs)), np.stack([dA * np.cos(E), dE], -1), rtol=0, atol=1e-15)
+
+
+def test_derivatives_match_finite_differences():
+    model = _mixed_models()["alt-az"]
+    rng = np.random.default_rng(2)
+    encoder = np.stack([rng.uniform(-3, 3, 30), rng.uniform(0.3, 1.3, 30)], axis=1)
+    obs = px.simulate(model, encoder, noise=5 * ARCSEC, seed=2)
+    data = site_data(model, obs)
+    params = model.free_parameters
+    fn = residual_function(params)
+    y = model.values("free")
+
+    def flat(v):
+        return jnp.concatenate(fn(v, (model, data)))
+
+    jac = np.asarray(jax.jacfwd(flat)(y))
+    h = 1e-7
+    for k in range(len(params)):
+        e = np.zeros(len(params))
+        e[k] = h
+        fd = (np.asarray(flat(y + e)) - np.asarray(flat(y - e))) / (2 * h)
+        np.testing.assert_allclose(jac[:, k], fd, rtol=0, atol=1e-7 * max(1.0, np.max(np.abs(fd))), err_msg=params[k].name)
+
+
+def _tpoint_site(seed: int, n: int):
+    rng = np.random.default_rng(seed)
+    values = dict(zip(TERMS.split(), rng.normal(0, [100, 30, 20, 20, 10, 10, 10, 3]) * ARCSEC))
+    truth = px.AltAz(px.terms.tpoint(TERMS, values=values))
+    raw = np.stack([rng.uniform(0, 2 * np.pi, n), np.radians(rng.uniform(15, 85, n))], axis=1)
+    return px.simulate(truth, raw, noise=ARCSEC, seed=seed)
+
+
+def test_batch_takes_one_step_and_equals_solo_fits():
+    model = px.AltAz(px.terms.tpoint(TERMS), residual_form="tpoint")
+    assert is_affine(model)
+    sites = [_tpoint_site(k, n) for k, n in enumerate((60, 41, 55, 60))]
+    nan_site = _tpoint_site(10, 60)
+    encoder = np.array(nan_site.encoder)
+    encoder[7] = np.nan
+    sites.insert(2, px.Observations(encoder, nan_site.target, convention=nan_site.convention))
+    flat = _tpoint_site(11, 60)
+    encoder = np.array(flat.encoder)
+    encoder[:, 1] = encoder[0, 1]  # one elevation: NPAE, CA, TF and TX cannot be told apart
+    sites.insert(4, px.simulate(px.AltAz(), encoder, seed=3))
+    result = px.fit_batch(model, px.stack_observations(sites))
+    statuses = px.site_statuses(result)
+    for k, site in enumerate(sites):
+        if k in (2, 4):
+            continue
+        solo = px.fit(model, site)
+        assert bool(result.converged[k]) and int(result.iterations[k]) == 1
+        np.testing.assert_allclose(np.asarray(result.values[k]), np.asarray(solo.values), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(result.sigmas[k]), np.asarray(solo.sigmas), rtol=1e-8)
+    assert statuses[2]["status"] == "failed"
+    assert statuses[4]["status"] in ("failed", "degenerate")
+
+
+def test_affine_only_when_every_free_parameter_is_linear():
+    linear = px.terms.tpoint(TERMS)
+    assert not is_affine(px.AltAz(linear))  # the exact form: a fixed point, not affine
+    rigorous = px.terms.tpoint("CA", form="rigorous")
+    mixed = px.AltAz((*linear[:2], *rigorous), residual_form="tpoint")
+    assert not is_affine(mixed)
+    assert is_affine(mixed.fix("CA"))
+
+
+def test_residual_form_is_kept_and_checked():
+    model = px.AltAz(px.terms.tpoint("IA IE CA"), residual_form="tpoint")
+    for copy in (model.fix("IA"), model.free(), model.with_terms(*px.terms.tpoint("TF")), model.without_terms("CA"),
+                 model.with_values(model.values())):
+        assert copy.residual_form == "tpoint"
+    assert model.with_residual_form("sky").residual_form == "sky"
+    with pytest.raises(ValueError, match="residual_form must be one of"):
+        px.AltAz(residual_form="angles")
+    with pytest.raises(ValueError, match="TurntableMount has none"):
+        px.Model(px.TurntableMount(), residual_form="tpoint")
+
+
+def test_claimed_linearity_must_come_with_a_sky_offset():
+    class Liar(px.Term):
+        coef: float = px.terms.param(0.0)
+        linear_sky_offset = True
+
+    model = px.AltAz((Liar(),), residual_form="tpoint")
+    obs = px.simulate(px.AltAz(), np.array([[0.1, 0.5], [1.0, 0.7]]))
+    with pytest.raises(TypeError, match="Liar says linear_sky_offset but has no sky_offset"):
+        site_data(model, obs)
+
+
+def test_jit_and_vmap_of_tpoint_residuals(mmt):
+    model = px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth, residual_form="tpoint")
+    obs = mmt.observations
+    direct = np.asarray(px.residuals(model, obs))
+    jitted = np.asarray(eqx.filter_jit(px.residuals)(model, obs))
+    np.testing.assert_allclose(jitted, direct, rtol=0, atol=1e-15)
+    values = jnp.stack([model.values(), model.values() + 1e-5])
+    batched = jax.vmap(lambda v: px.residuals(model.with_values(v), obs))(values)
+    np.testing.assert_allclose(np.asarray(batched[0]), direct, rtol=0, atol=1e-16)
