@@ -18,6 +18,7 @@ Parameters shared by all sites: :func:`pointax.fit_shared`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 
 import equinox as eqx
@@ -25,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-from jaxtyping import ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from . import normal_equations
 from ._x64 import float64
@@ -125,11 +126,46 @@ def start_values(model: Model, n_sites: int, values, what: str = "free parameter
     return values
 
 
-def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float) -> FitResult:
-    """One site: exactly ``steps`` optimistix Gauss-Newton steps (no early exit: under
-    ``vmap`` every site would run as long as the slowest anyway) with the structured
-    residuals of :mod:`pointax.site` and the :class:`NormalCholesky` solver, then the
-    statistics.
+def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float):
+    """A chunk of sites (``y0 (S, M)``, ``data`` with a leading site axis): exactly
+    ``steps`` optimistix Gauss-Newton steps for every site (no early exit: under ``vmap``
+    every site would run as long as the slowest anyway) with the structured residuals
+    of :mod:`pointax.site` and the :class:`NormalCholesky` solver, then the statistics
+    (:func:`_finish`). Returns the batched ``(FitResult, suspect)``.
+
+    The loop runs over the whole chunk and ``vmap`` acts inside it: vmapping the loop
+    instead made JAX batch its body twice while tracing (once more for every carried
+    value that starts the same for all sites), 0.35 s of the first call.
+    """
+    params = model.free_parameters
+    fn = residual_function(params)
+    solver = optx.GaussNewton(rtol=rtol, atol=atol, linear_solver=NormalCholesky())
+
+    def with_aux(y, a):
+        return fn(y, a), None
+
+    n = data.used.shape[-1]
+    f_struct = (jax.ShapeDtypeStruct((n,), y0.dtype), jax.ShapeDtypeStruct((n,), y0.dtype))
+    state = eqx.filter_vmap(lambda y, d: solver.init(with_aux, y, (model, d), {}, f_struct, None, frozenset()))(y0, data)
+    # optimistix's own steps in a fixed-count loop (one traced step: compiles once; an
+    # unrolled loop compiled 2-3x longer and ran no faster, see benchmarks/batch_fit_notes.md).
+    dynamic, static = eqx.partition(state, eqx.is_array)
+
+    def one_step(y, dynamic, d):
+        y, state, _ = solver.step(with_aux, y, (model, d), {}, eqx.combine(dynamic, static), frozenset())
+        return y, eqx.filter(state, eqx.is_array)
+
+    def body(_, carry):
+        return jax.vmap(one_step)(*carry, data)
+
+    y, dynamic = jax.lax.fori_loop(0, steps, body, (y0, dynamic))
+    finish = lambda y, dynamic, d: _finish(model, y, eqx.combine(dynamic, static), d, steps, rtol, atol)  # noqa: E731
+    return jax.vmap(finish)(y, dynamic, data)
+
+
+def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, atol: float) -> tuple[FitResult, Array]:
+    """One site after the fixed steps (``y``: the last accepted point, ``state`` the
+    solver's): the convergence test and the statistics.
 
     Converged when the last update and the change of the residuals it made are within
     the tolerances (optimistix's Cauchy test) and everything is finite. When the
@@ -140,26 +176,6 @@ def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, 
     near-singular, for an exact (SVD) second look.
     """
     params = model.free_parameters
-    fn = residual_function(params)
-    args = (model, data)
-    solver = optx.GaussNewton(rtol=rtol, atol=atol, linear_solver=NormalCholesky())
-
-    def with_aux(y, a):
-        return fn(y, a), None
-
-    f_struct = jax.eval_shape(lambda: fn(y0, args))
-    state = solver.init(with_aux, y0, args, {}, f_struct, None, frozenset())
-    # optimistix's own steps in a fixed-count loop (one traced step: compiles once; an
-    # unrolled loop compiled 2-3x longer and ran no faster, see benchmarks/batch_fit_notes.md).
-    dynamic, static = eqx.partition(state, eqx.is_array)
-
-    def body(_, carry):
-        y, dynamic = carry
-        y, state, _ = solver.step(with_aux, y, args, {}, eqx.combine(dynamic, static), frozenset())
-        return y, eqx.filter(state, eqx.is_array)
-
-    y, dynamic = jax.lax.fori_loop(0, steps, body, (y0, dynamic))
-    state = eqx.combine(dynamic, static)
     # optimistix evaluates at y_eval and accepts y one step later: y_eval holds the last update.
     update = state.y_eval - y
     y = state.y_eval
@@ -188,14 +204,38 @@ def _fixed_steps_fit(model: Model, y0, data: SiteData, steps: int, rtol: float, 
     return result, suspect
 
 
-@eqx.filter_jit
-def _site_data(model, obs) -> SiteData:
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+"""XLA options for the fast path's two compiled calls: on the CPU, XLA's older loop
+emitters compiled the fixed-step turntable fit in 1.6 s against 2.6 s with the fusion
+emitters, and ran it as fast (``benchmarks/batch_fit_notes.md``). Left out when this
+XLA does not know them."""
+
+
+@functools.cache
+def _compiler_options() -> dict:
+    try:
+        jax.jit(lambda x: x + 1.0, compiler_options=FAST_COMPILE_OPTIONS).lower(1.0).compile()
+    except Exception:  # an XLA without these options: its defaults
+        return {}
+    return FAST_COMPILE_OPTIONS
+
+
+@functools.cache
+def _compiled(fn, static_argnames: tuple[str, ...] = ()):
+    return jax.jit(fn, static_argnames=static_argnames, compiler_options=_compiler_options())
+
+
+def _site_data_batch(model, obs) -> SiteData:
     return jax.vmap(lambda o: site_data(model, o))(obs)
 
 
-@eqx.filter_jit
+def _site_data(model, obs) -> SiteData:
+    return _compiled(_site_data_batch)(model, obs)
+
+
 def _fit_sites_fixed_data(model, values, data, steps, rtol, atol):
-    return jax.vmap(lambda y, d: _fixed_steps_fit(model, y, d, steps, rtol, atol))(values, data)
+    fn = _compiled(_fixed_steps_fits, ("steps", "rtol", "atol"))
+    return fn(model, values, data, steps=steps, rtol=rtol, atol=atol)
 
 
 def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
@@ -223,6 +263,15 @@ def _pad_sites(tree, size: int):
         return jnp.asarray(np.concatenate([x, np.repeat(x[:1], size - x.shape[0], axis=0)]))
 
     return jax.tree.map(pad, tree)
+
+
+def _host(x) -> np.ndarray:
+    return np.asarray(x, np.float64)
+
+
+def _first_sites(tree, n: int):
+    """The first ``n`` sites of every leaf, as NumPy arrays."""
+    return jax.tree.map(lambda x: np.asarray(x)[:n], tree)
 
 
 def _take_sites(tree, index):
@@ -303,7 +352,8 @@ def fit_batch(
     _check_convention(model, observations)
     n_sites = observations.encoder.shape[0]
     values = start_values(model, n_sites, values)
-    model = model.with_values(model.values())
+    # Parameters as float64 arrays (host-side: no small computations to compile).
+    model = model._replace(model.parameters, [_host(getattr(model.terms[p.term], p.field)) for p in model.parameters])
     fast = int(steps) > 0 and loss == "linear"
     site_obs = _batched(
         np.asarray(observations.encoder, np.float64),
@@ -328,7 +378,7 @@ def fit_batch(
         for start, stop, y0, obs, (out, suspect) in pending:
             out = dataclasses.replace(out, solver=solver)
             n = stop - start
-            again = np.flatnonzero(~np.asarray(out.converged[:n]) | np.asarray(suspect[:n]))
+            again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
             if again.size:
                 # Few sites: pad to a power of two so that few shapes are compiled.
                 pad = max(8, 1 << int(np.ceil(np.log2(again.size))))
@@ -339,17 +389,17 @@ def fit_batch(
                     solver, max_steps, rtol, atol, loss, loss_scale, reject,
                 )
                 redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps))
-                out = jax.tree.map(jnp.asarray, _put_sites(out, again, redo))
-            results.append(out if n == size else jax.tree.map(lambda x: x[:n], out))
+                out = _put_sites(out, again, redo)
+            results.append(_first_sites(out, n))
             if progress is not None:
                 progress(stop, n_sites)
     else:
         for start, stop in chunks:
             y0, obs = chunk_inputs(start, stop)
             out = _fit_sites(model, y0, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
-            results.append(out if stop - start == size else jax.tree.map(lambda x: x[: stop - start], out))
+            results.append(_first_sites(out, stop - start))
             if progress is not None:
                 progress(stop, n_sites)
-    if len(results) == 1:
-        return results[0]
-    return jax.tree.map(lambda *xs: jnp.concatenate(xs), *results)
+    # Assembled on the host: JAX's slicing and concatenation would each compile a small
+    # computation per result field on the first call (0.6 s measured).
+    return jax.tree.map(lambda *xs: jnp.asarray(np.concatenate(xs)), *results)
