@@ -204,7 +204,7 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     return result, suspect
 
 
-FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
 """XLA options for the fast path's two compiled calls: on the CPU, XLA's older loop
 emitters compiled the fixed-step turntable fit in 1.6 s against 2.6 s with the fusion
 emitters, and ran it as fast (``benchmarks/batch_fit_notes.md``). Left out when this

@@ -39,7 +39,7 @@ from jaxtyping import Array, Bool, Float
 
 from .model import Model, ParameterInfo
 from .observations import Observations
-from .rotations import enu_to_azel, wrap_pi
+from .rotations import wrap_pi
 
 __all__ = ["SiteData", "site_data", "site_residuals", "residual_columns", "residual_function", "is_affine"]
 
@@ -108,9 +108,22 @@ def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = 
         observed = (angles[:, 0], angles[:, 1], jnp.cos(angles[:, 1]))
         sky_basis = tuple(_unit_offsets(model, angles))
     else:
-        az, el = enu_to_azel(target)  # as tangent_basis takes them
-        target_trig = (jnp.cos(az), jnp.sin(az), jnp.cos(el), jnp.sin(el))
+        target_trig = _azel_trig(target)
     return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, observed, sky_basis)
+
+
+def _azel_trig(v: Float[Array, "n 3"]) -> tuple[Array, Array, Array, Array]:
+    """cos and sin of the azimuth and elevation of directions ``v`` (as
+    :func:`pointax.rotations.enu_to_azel` defines them: azimuth 0 at the poles) from
+    the components, with no inverse or direct trigonometric function."""
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    h2 = x * x + y * y
+    off_pole = h2 > 1e-300
+    h = jnp.sqrt(jnp.where(off_pole, h2, 1.0))
+    r = jnp.sqrt(h2 + z * z)
+    cos_az = jnp.where(off_pole, y / h, 1.0)
+    sin_az = jnp.where(off_pole, x / h, 0.0)
+    return cos_az, sin_az, jnp.where(off_pole, h, 0.0) / r, z / r
 
 
 def is_affine(model: Model) -> bool:
