@@ -14,6 +14,7 @@ from . import distributed, io, network, rotations, sky, stars, terms, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .compare import Comparison, ModelBuild, build_model, compare
+from .compilation_cache import enable_compilation_cache
 from .fit import FitResult, fit, residuals
 from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
 from .model import AltAz, Model, ParameterInfo, Turntable
@@ -61,6 +62,7 @@ __all__ = [
     "arcsec",
     "deg",
     "distributed",
+    "enable_compilation_cache",
     "calibrate_heliostat",
     "command",
     "command_reflector",

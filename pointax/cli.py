@@ -87,7 +87,7 @@ from .io import (
     read_tpoint,
     write_model,
 )
-from .model import AltAz, Turntable
+from .model import RESIDUAL_FORMS, AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .network import add_fit_network_parser, run_fit_network
 from .rotations import azel_to_enu_numpy
@@ -114,6 +114,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--form", choices=sorted(term_library.FORMS), default="linear", help="term form (default: linear, as TPOINT)")
     p.add_argument("--fix", default="", help="terms to hold fixed at 0, comma separated")
+    p.add_argument(
+        "--residuals",
+        choices=list(RESIDUAL_FORMS),
+        default="sky",
+        help="what the fit minimises: sky (exact tangent-plane offsets, default) or tpoint (TPOINT's own: "
+        "(dA cos E, dE) with the terms at the observed position)",
+    )
     p.add_argument(
         "--azimuth",
         choices=sorted(AZIMUTH_CONVENTIONS),
@@ -281,7 +288,7 @@ def _command_command(args) -> int:
 
 def _fit_paint(args) -> int:
     for option, value, default in (("--write-model", args.write_model, None), ("--form", args.form, "linear"),
-                                   ("--azimuth", args.azimuth, "N-E")):
+                                   ("--azimuth", args.azimuth, "N-E"), ("--residuals", args.residuals, "sky")):
         if value != default:
             raise ValueError(f"{option} applies to TPOINT runs, not to --format paint")
     run = read_paint(args.data, focal_spot=args.focal_spot)
@@ -305,7 +312,7 @@ def _gpoint_model(args, run):
     if args.write_model and any(t.name != t.name.upper() for t in terms):
         raise ValueError("--write-model writes TPOINT model files; gpoint's lower-case terms have no TPOINT name there")
     # gpoint's names are case-sensitive (ie is not IE): no upper-casing of --fix.
-    return AltAz(terms, azimuth=run.azimuth, fixed=term_library.gpoint_names(args.fix))
+    return AltAz(terms, azimuth=run.azimuth, fixed=term_library.gpoint_names(args.fix), residual_form=args.residuals)
 
 
 def _fit_command(args) -> int:
@@ -317,12 +324,12 @@ def _fit_command(args) -> int:
     else:
         run = read_tpoint(args.data, azimuth=args.azimuth)
         terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
-        model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix))
+        model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix), residual_form=args.residuals)
     result = fit(model, run, solver=args.solver, max_steps=args.max_steps, loss=args.loss or "linear")
     if args.write_model:
         write_model(args.write_model, result)
     if args.json:
-        out = {"file": args.data, "caption": run.caption, "form": args.form, **result.to_dict()}
+        out = {"file": args.data, "caption": run.caption, "form": args.form, "residuals": args.residuals, **result.to_dict()}
         print(json.dumps(out, indent=2))
     else:
         print(result.report())

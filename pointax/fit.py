@@ -236,7 +236,8 @@ class FitResult(eqx.Module):
             if bool(self.converged)
             else f"NOT CONVERGED after {int(self.iterations)} iterations"
         )
-        lines.append(f"{solver_name} fit of {int(self.n_obs)} observations: {status}")
+        form = " (TPOINT's residuals: terms at the observed position)" if self.model.residual_form == "tpoint" else ""
+        lines.append(f"{solver_name} fit of {int(self.n_obs)} observations{form}: {status}")
         flagged = self.outlier_indices()
         if self.loss != "linear":
             lines.append(

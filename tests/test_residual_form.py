@@ -209,3 +209,18 @@ def test_jit_and_vmap_of_tpoint_residuals(mmt):
     values = jnp.stack([model.values(), model.values() + 1e-5])
     batched = jax.vmap(lambda v: px.residuals(model.with_values(v), obs))(values)
     np.testing.assert_allclose(np.asarray(batched[0]), direct, rtol=0, atol=1e-16)
+
+
+def test_command_line_fits_tpoint_residuals(mmt, capsys):
+    import json
+
+    from pointax.cli import main
+
+    assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["residuals"] == "tpoint"
+    x, *_ = _ols_reference(mmt)
+    values = np.array([p["value_arcsec"] for p in out["terms"]]) * ARCSEC
+    np.testing.assert_allclose(values, x, rtol=0, atol=1e-11)
+    assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint"]) == 0
+    assert "TPOINT's residuals" in capsys.readouterr().out
