@@ -34,7 +34,15 @@ from .fit import FitResult, _check_convention, _fit, check_options, least_square
 from .model import Model
 from .normal_equations import NormalCholesky
 from .observations import Observations
-from .site import SiteData, is_affine, residual_function, site_data, site_residuals
+from .site import (
+    SiteData,
+    is_affine,
+    residual_function,
+    site_geometry,
+    site_residuals,
+    with_sky_basis,
+)
+from .terms.base import SkyPoint
 
 SUSPECT_PIVOT = 1e-8
 """A relative Cholesky pivot of the normal matrix below this sends a site to the exact
@@ -225,12 +233,25 @@ def _compiled(fn, static_argnames: tuple[str, ...] = ()):
     return jax.jit(fn, static_argnames=static_argnames, compiler_options=_compiler_options())
 
 
-def _site_data_batch(model, obs) -> SiteData:
-    return jax.vmap(lambda o: site_data(model, o))(obs)
+def _site_geometry_batch(model, obs):
+    return jax.vmap(lambda o: site_geometry(model, o))(obs)
+
+
+def _sky_point_batch(angles) -> SkyPoint:
+    return SkyPoint.at(angles)
+
+
+def _sky_basis_batch(model, data, point) -> SiteData:
+    return jax.vmap(lambda d, p: with_sky_basis(model, d, p))(data, point)
 
 
 def _site_data(model, obs) -> SiteData:
-    return _compiled(_site_data_batch)(model, obs)
+    """:func:`pointax.site.site_data` for a chunk, in up to three compiled calls (see
+    :func:`pointax.site.with_sky_basis`)."""
+    data, angles = _compiled(_site_geometry_batch)(model, obs)
+    if angles is None:
+        return data
+    return _compiled(_sky_basis_batch)(model, data, _compiled(_sky_point_batch)(angles))
 
 
 def _fit_sites_fixed_data(model, values, data, steps, rtol, atol):

@@ -23,13 +23,39 @@ first.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-__all__ = ["Term", "param", "param_fields", "param_unit", "angle_pair"]
+__all__ = ["Term", "SkyPoint", "param", "param_fields", "param_unit", "angle_pair"]
+
+
+class SkyPoint(NamedTuple):
+    """A position in the mount's angle coordinates with the sines and cosines of its
+    angles, as :meth:`Term.sky_offset_at` takes it (scalars, or arrays of one shape).
+
+    Batched fits compute these once per observation; a term that reads them instead of
+    calling ``jnp.sin`` itself costs those fits no trigonometric function at all.
+    """
+
+    az: Array
+    el: Array
+    sin_az: Array
+    cos_az: Array
+    sin_el: Array
+    cos_el: Array
+
+    @classmethod
+    def at(cls, angles: Float[Array, "2"]) -> "SkyPoint":
+        """The point at ``angles = (axis-1, axis-2)`` radians."""
+        az, el = angles[0], angles[1]
+        return cls(az, el, jnp.sin(az), jnp.cos(az), jnp.sin(el), jnp.cos(el))
+
+    @property
+    def tan_el(self) -> Array:
+        return self.sin_el / self.cos_el
 
 
 def angle_pair(axis1, axis2) -> Float[Array, "2"]:
@@ -104,3 +130,10 @@ class Term(eqx.Module):
         pointing and evaluated *at the corrected (sky) position*: the TPOINT linear
         form (flexure, harmonic terms, every TPOINT term in its linear form)."""
         return None
+
+    def sky_offset_at(self, point: SkyPoint) -> Float[Array, "2"] | None:
+        """:meth:`sky_offset` at a :class:`SkyPoint` whose sines and cosines are already
+        known (batched fits compute them once per observation). Override it, and
+        define :meth:`sky_offset` through it, to use them; by default it calls
+        :meth:`sky_offset` on the point's angles."""
+        return self.sky_offset(jnp.stack([point.az, point.el]))

@@ -201,13 +201,13 @@ class Harmonic(LinearTerm):
     def name(self) -> str:
         return self.label
 
-    def basis(self, az, el):
-        f = harmonic_function(self.factors, az, el)
+    def basis(self, p):
+        f = harmonic_function(self.factors, p.az, p.el)
         if self.result == "A":
             return -f, 0.0
         if self.result == "E":
             return 0.0, f
-        return -f / jnp.cos(el), 0.0
+        return -f / p.cos_el, 0.0
 
 
 class RigorousHarmonic(Term):

@@ -53,10 +53,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import jax.numpy as jnp
-from jaxtyping import Array, Float
-
-from .base import Term, angle_pair, param
+from .base import SkyPoint, Term, angle_pair, param
 
 __all__ = [
     "LinearTerm",
@@ -84,19 +81,23 @@ class LinearTerm(Term):
     coef: float = param(0.0)
     linear_sky_offset: ClassVar[bool] = True
 
-    def basis(self, az: Float[Array, ""], el: Float[Array, ""]) -> tuple:
-        """(dA, dE) per radian of coefficient: observed minus raw, TPOINT's sign."""
+    def basis(self, p: SkyPoint) -> tuple:
+        """(dA, dE) per radian of coefficient at ``p`` (its angles and their sines and
+        cosines): observed minus raw, TPOINT's sign."""
         raise NotImplementedError
 
+    def sky_offset_at(self, point: SkyPoint):
+        return self.coef * angle_pair(*self.basis(point))
+
     def sky_offset(self, angles):
-        return self.coef * angle_pair(*self.basis(angles[0], angles[1]))
+        return self.sky_offset_at(SkyPoint.at(angles))
 
 
 class IA(LinearTerm):
     """Azimuth index error: the azimuth encoder zero point. ``dA = -IA``.
     katpoint: P1 = +IA."""
 
-    def basis(self, az, el):
+    def basis(self, p):
         return -1.0, 0.0
 
 
@@ -106,7 +107,7 @@ class IE(LinearTerm):
     katpoint: P7 = -IE.
     """
 
-    def basis(self, az, el):
+    def basis(self, p):
         return 0.0, 1.0
 
 
@@ -117,8 +118,8 @@ class CA(LinearTerm):
     katpoint: P4 = -CA.
     """
 
-    def basis(self, az, el):
-        return -1.0 / jnp.cos(el), 0.0
+    def basis(self, p):
+        return -1.0 / p.cos_el, 0.0
 
 
 class NPAE(LinearTerm):
@@ -127,8 +128,8 @@ class NPAE(LinearTerm):
     katpoint: P3 = +NPAE.
     """
 
-    def basis(self, az, el):
-        return -jnp.tan(el), 0.0
+    def basis(self, p):
+        return -p.tan_el, 0.0
 
 
 class AN(LinearTerm):
@@ -138,8 +139,8 @@ class AN(LinearTerm):
     katpoint: P5 = +AN.
     """
 
-    def basis(self, az, el):
-        return -jnp.sin(az) * jnp.tan(el), -jnp.cos(az)
+    def basis(self, p):
+        return -p.sin_az * p.tan_el, -p.cos_az
 
 
 class AW(LinearTerm):
@@ -149,8 +150,8 @@ class AW(LinearTerm):
     katpoint: P6 = -AW.
     """
 
-    def basis(self, az, el):
-        return -jnp.cos(az) * jnp.tan(el), jnp.sin(az)
+    def basis(self, p):
+        return -p.cos_az * p.tan_el, p.sin_az
 
 
 class TF(LinearTerm):
@@ -160,16 +161,16 @@ class TF(LinearTerm):
     also the rigorous form.
     """
 
-    def basis(self, az, el):
-        return 0.0, -jnp.cos(el)
+    def basis(self, p):
+        return 0.0, -p.cos_el
 
 
 class TX(LinearTerm):
     """Tube flexure, tan Z law (a sag proportional to the tangent of the zenith
     distance). ``dE = -TX cot E``. No katpoint equivalent."""
 
-    def basis(self, az, el):
-        return 0.0, -1.0 / jnp.tan(el)
+    def basis(self, p):
+        return 0.0, -p.cos_el / p.sin_el
 
 
 class ACEC(LinearTerm):
@@ -177,16 +178,16 @@ class ACEC(LinearTerm):
     centre (encoder eccentricity). ``dA = +ACEC cos A`` (TPOINT's HACA1, which is
     ``-coef cos(180 deg - A)``). katpoint: P13 = -ACEC."""
 
-    def basis(self, az, el):
-        return jnp.cos(az), 0.0
+    def basis(self, p):
+        return p.cos_az, 0.0
 
 
 class ACES(LinearTerm):
     """Azimuth centring error, sine component. ``dA = -ACES sin A`` (TPOINT's HASA1,
     ``-coef sin(180 deg - A)``). katpoint: P14 = +ACES."""
 
-    def basis(self, az, el):
-        return -jnp.sin(az), 0.0
+    def basis(self, p):
+        return -p.sin_az, 0.0
 
 
 class ECEC(LinearTerm):
@@ -194,16 +195,16 @@ class ECEC(LinearTerm):
     ``dE = +ECEC cos E`` (TPOINT's HECE1; the same function as TF with the opposite
     sign, so never fit both). katpoint: P8 = -ECEC."""
 
-    def basis(self, az, el):
-        return 0.0, jnp.cos(el)
+    def basis(self, p):
+        return 0.0, p.cos_el
 
 
 class ECES(LinearTerm):
     """Elevation centring error, sine component. ``dE = +ECES sin E`` (TPOINT's HESE1).
     katpoint: P11 = -ECES."""
 
-    def basis(self, az, el):
-        return 0.0, jnp.sin(el)
+    def basis(self, p):
+        return 0.0, p.sin_el
 
 
 class PAA1(LinearTerm):
@@ -211,16 +212,16 @@ class PAA1(LinearTerm):
     ``dA = -PAA1 * A`` with A in radians (on the encoder's branch of azimuth).
     katpoint: P12 = +PAA1 (dimensionless there)."""
 
-    def basis(self, az, el):
-        return -az, 0.0
+    def basis(self, p):
+        return -p.az, 0.0
 
 
 class PEE1(LinearTerm):
     """Elevation encoder scale error: first-order polynomial in elevation.
     ``dE = +PEE1 * E`` with E in radians. katpoint: P9 = -PEE1 (dimensionless there)."""
 
-    def basis(self, az, el):
-        return 0.0, el
+    def basis(self, p):
+        return 0.0, p.el
 
 
 LINEAR_TERMS: dict[str, type[LinearTerm]] = {
