@@ -218,10 +218,10 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
 
 
 FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
-"""XLA options for the fast path's two compiled calls: on the CPU, XLA's older loop
+"""XLA options for the fast path's compiled calls: on the CPU, XLA's older loop
 emitters compiled the fixed-step turntable fit in 1.6 s against 2.6 s with the fusion
-emitters, and ran it as fast (``benchmarks/batch_fit_notes.md``). Left out when this
-XLA does not know them."""
+emitters, and ran it as fast; optimisation level 2 took another 0.1-0.2 s off
+(``benchmarks/batch_fit_notes.md``). Left out when this XLA does not know them."""
 
 
 @functools.cache

@@ -28,6 +28,8 @@ format      yes       ``sun``: sun observations of a mirror turntable
 terms       no        terms to fit, separated by spaces (default: sun ``full``;
                       tpoint TPOINT's eight basic terms; paint ``t1n t1u t2e t2n``)
 form        no        tpoint: ``linear`` (default) or ``rigorous``
+residuals   no        tpoint: what the fit minimises, ``sky`` (default) or ``tpoint``
+                      (TPOINT's own residuals, as ``pointax fit --residuals``)
 azimuth     no        tpoint: how the file counts azimuth, ``N-E`` (default), ``S-E``, ``S-W``
 focal_spot  no        paint: ``HeliOS`` (default) or ``UTIS``
 ==========  ========  ============================================================
@@ -37,7 +39,7 @@ data file that does not exist) raises :class:`ManifestError`, naming the manifes
 line and the field. Data files are read later: a site whose file cannot be read is
 reported ``failed`` with the reader's message (file, line, field) and the others go on.
 
-Sites with the same format and model (terms, form, azimuth) go through one
+Sites with the same format and model (terms, form, residuals, azimuth) go through one
 :func:`pointax.fit_batch` call (or :func:`pointax.distributed.fit_batch_distributed`
 when a Dask ``client`` is given), each with its own starting values (turntables: encoder
 zeros from their data). PAINT heliostats each have their own actuator geometry, so they
@@ -76,7 +78,7 @@ from .heliostat import calibrate_heliostat
 from .io.paint import FOCAL_SPOT_METHODS, read_paint
 from .io.sun import read_sun_observations
 from .io.tpoint import read_tpoint
-from .model import AltAz, Turntable
+from .model import RESIDUAL_FORMS, AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .terms.sun_vector import TURNTABLE_MODELS, estimate_zeros
@@ -97,11 +99,11 @@ __all__ = [
 FORMATS = ("sun", "tpoint", "paint")
 """Data formats a manifest row may name."""
 
-MANIFEST_COLUMNS = ("site", "path", "format", "terms", "form", "azimuth", "focal_spot")
+MANIFEST_COLUMNS = ("site", "path", "format", "terms", "form", "residuals", "azimuth", "focal_spot")
 """Every column a manifest may have; the first three are required."""
 
 _REQUIRED = MANIFEST_COLUMNS[:3]
-_OPTION_FORMATS = {"form": ("tpoint",), "azimuth": ("tpoint",), "focal_spot": ("paint",)}
+_OPTION_FORMATS = {"form": ("tpoint",), "residuals": ("tpoint",), "azimuth": ("tpoint",), "focal_spot": ("paint",)}
 _DEFAULT_TERMS = {"sun": "full", "tpoint": " ".join(term_library.BASIC_ALTAZ), "paint": " ".join(HELIOSTAT_DEFAULT)}
 _STATUSES = ("converged", "degenerate", "failed")
 
@@ -127,6 +129,7 @@ class SiteEntry:
         format: one of :data:`FORMATS`.
         terms: names of the terms to fit.
         form: TPOINT term form ('linear' or 'rigorous'; tpoint only).
+        residuals: the model's ``residual_form`` ('sky' or 'tpoint'; tpoint only).
         azimuth: azimuth convention of a TPOINT file (tpoint only).
         focal_spot: PAINT focal-spot method (paint only).
         line: the row's line number in the manifest.
@@ -137,6 +140,7 @@ class SiteEntry:
     format: str
     terms: tuple[str, ...]
     form: str = "linear"
+    residuals: str = "sky"
     azimuth: str = "N-E"
     focal_spot: str = FOCAL_SPOT_METHODS[0]
     line: int = 0
@@ -144,7 +148,7 @@ class SiteEntry:
     @property
     def model_key(self) -> tuple:
         """Sites with equal keys share one batched fit."""
-        return (self.format, self.terms, self.form, self.azimuth)
+        return (self.format, self.terms, self.form, self.residuals, self.azimuth)
 
 
 # --------------------------------------------------------------------------- manifest
@@ -236,6 +240,10 @@ def _entry(name: str, number: int, base: Path, row: dict[str, str], seen: dict[s
         if row["form"] not in term_library.FORMS:
             raise error("form", f"unknown term form {row['form']!r}; expected one of {', '.join(sorted(term_library.FORMS))}")
         options["form"] = row["form"]
+    if row.get("residuals"):
+        if row["residuals"] not in RESIDUAL_FORMS:
+            raise error("residuals", f"unknown residual form {row['residuals']!r}; expected one of {', '.join(RESIDUAL_FORMS)}")
+        options["residuals"] = row["residuals"]
     if row.get("azimuth"):
         if row["azimuth"] not in AZIMUTH_CONVENTIONS:
             raise error("azimuth", f"unknown azimuth convention {row['azimuth']!r}; expected one of {', '.join(AZIMUTH_CONVENTIONS)}")
@@ -414,7 +422,7 @@ def _header(entry: SiteEntry) -> dict[str, Any]:
 def _batch_model(entry: SiteEntry):
     if entry.format == "sun":
         return Turntable(entry.terms)
-    return AltAz(term_library.tpoint(entry.terms, form=entry.form), azimuth=entry.azimuth)
+    return AltAz(term_library.tpoint(entry.terms, form=entry.form), azimuth=entry.azimuth, residual_form=entry.residuals)
 
 
 def _start_values(members: list[SiteEntry], runs: list, model) -> np.ndarray:
@@ -536,7 +544,7 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         one = site_result(result, k)
         head = _header(entry)
         if entry.format == "tpoint":
-            head.update(caption=run.caption, form=entry.form)
+            head.update(caption=run.caption, form=entry.form, residuals=entry.residuals)
         out[entry.site] = {**head, **statuses[k], **one.to_dict()}
     return out
 
@@ -558,7 +566,7 @@ def add_fit_network_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "fit-network",
         help="fit every site of a network manifest in batched fits; per-site status and a summary",
-        description="Fit every site listed in MANIFEST (CSV: site, path, format[, terms, form, azimuth, "
+        description="Fit every site listed in MANIFEST (CSV: site, path, format[, terms, form, residuals, azimuth, "
         "focal_spot]; see pointax.network). Exit status 0 when every site converged, 1 when some did "
         "not (degenerate or failed), 2 for a bad manifest.",
     )

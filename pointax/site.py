@@ -109,7 +109,8 @@ def with_sky_basis(model: Model, data: SiteData, point: SkyPoint | None) -> Site
     Batched fits take the angles, their sines and cosines, and these offsets in three
     compiled calls: within one computation XLA on the CPU recomputes an ``atan2``, sine
     or cosine in every output that uses it (measured: 15 transcendental functions per
-    observation for TPOINT's eight basic terms in one call, 7 in three)."""
+    observation for TPOINT's eight basic terms in one call; in three, two ``atan2``,
+    two square roots and four sines and cosines)."""
     if point is None:
         return data
     observed = (point.az, point.el, point.cos_el)
@@ -528,9 +529,6 @@ def residual_function(params: Sequence[ParameterInfo]):
         out = site_residuals(fitted, data)
         t_out = (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
         if not isinstance(ty, SymbolicZero):
-            # A zero tangent component contributes nothing (not 0 * column): when the
-            # tangent is a constant unit vector (the solver taking the Jacobian's
-            # columns), XLA then drops the other columns instead of multiplying them by 0.
             for k, (cx, cy) in enumerate(residual_columns(fitted, data, params)):
                 t_out = (t_out[0] + ty[k] * cx, t_out[1] + ty[k] * cy)
         extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m._replace(params, ys), d))

@@ -129,7 +129,7 @@ def test_json_per_site_is_pointax_fit_json_plus_site_and_status(capsys):
         assert a["value_arcsec"] == pytest.approx(b["value_arcsec"], abs=1e-6)  # batch = solo fit
         assert a["sigma_arcsec"] == pytest.approx(b["sigma_arcsec"], rel=1e-6)
     np.testing.assert_allclose(np.array(mmt["correlation"]), np.array(solo["correlation"]), atol=1e-8)
-    sun_keys = set(solo) - {"file", "caption", "form"}  # what FitResult.to_dict gives
+    sun_keys = set(solo) - {"file", "caption", "form", "residuals"}  # what FitResult.to_dict gives
     for s in sites[:5]:
         assert set(s) == sun_keys | {"site", "format", "file", "status", "reason"}
     assert set(sites[5]) == {"site", "format", "file", "status", "reason", "converged"}
@@ -243,6 +243,8 @@ def test_manifest_reads_rows_defaults_and_comments(tmp_path):
         ("site,path,format,azimuth\na,a.txt,sun,S-E\n", r"m\.csv:2: field 'azimuth': applies to format tpoint, not to sun"),
         ("site,path,format,azimuth\na,a.txt,tpoint,E-N\n", r"m\.csv:2: field 'azimuth': unknown azimuth convention 'E-N'"),
         ("site,path,format,form\na,a.txt,tpoint,exact\n", r"m\.csv:2: field 'form': unknown term form 'exact'"),
+        ("site,path,format,residuals\na,a.txt,tpoint,angles\n", r"m\.csv:2: field 'residuals': unknown residual form 'angles'"),
+        ("site,path,format,residuals\na,a.txt,sun,tpoint\n", r"m\.csv:2: field 'residuals': applies to format tpoint, not to sun"),
         ("site,path,format,focal_spot\na,heliostat,paint,eye\n", r"m\.csv:2: field 'focal_spot': unknown focal-spot method 'eye'"),
         ("site,path,format,terms\na,a.txt,sun,mu0 IA\n", r"m\.csv:2: field 'terms': unknown turntable parameter 'IA'"),
         ("site,path,format,terms\na,a.txt,tpoint,IA XX\n", r"m\.csv:2: field 'terms': unknown TPOINT term 'XX'"),
@@ -253,6 +255,17 @@ def test_manifest_reads_rows_defaults_and_comments(tmp_path):
 def test_manifest_errors_name_file_line_and_field(tmp_path, text, match):
     with pytest.raises(ManifestError, match=match):
         read_manifest(_manifest(tmp_path, text))
+
+
+def test_tpoint_residuals_from_the_manifest_equal_pointax_fit(tmp_path, capsys):
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"site,path,format,azimuth,residuals\nmmt,{MMT_DAT},tpoint,S-E,tpoint\n")
+    site = fit_network(manifest).sites[0]
+    assert pointax_main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--json"]) == 0
+    solo = json.loads(capsys.readouterr().out)
+    assert site["residuals"] == "tpoint" and site["status"] == "converged"
+    for ours, theirs in zip(site["terms"], solo["terms"]):
+        assert ours["value_arcsec"] == pytest.approx(theirs["value_arcsec"], abs=1e-8)
 
 
 def test_manifest_errors_stop_before_any_fit(tmp_path):
