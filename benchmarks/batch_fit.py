@@ -334,7 +334,7 @@ def optimistix_vmap_solver() -> Callable:
 # =========================================================================== timing
 
 
-def timed(call: Callable, size: int, budget_s: float = 1.5, max_repeats: int = 5):
+def timed(call: Callable, size: int, budget_s: float = 3.0, max_repeats: int = 10):
     """First call (with compilation) and the best of repeated calls after it, seconds."""
     t0 = time.perf_counter()
     out = jax.block_until_ready(call())

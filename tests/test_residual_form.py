@@ -224,3 +224,32 @@ def test_command_line_fits_tpoint_residuals(mmt, capsys):
     np.testing.assert_allclose(values, x, rtol=0, atol=1e-11)
     assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint"]) == 0
     assert "TPOINT's residuals" in capsys.readouterr().out
+
+
+class TwiceAzimuth(px.Term):
+    """A user's linear sky term that only defines sky_offset (no SkyPoint version)."""
+
+    coef: float = px.terms.param(0.0)
+    linear_sky_offset = True
+
+    def sky_offset(self, angles):
+        return angle_pair(self.coef * jnp.sin(2 * angles[0]), 0.5 * self.coef * jnp.cos(angles[1]))
+
+
+def test_user_linear_term_without_skypoint_takes_the_fast_path():
+    terms = (*px.terms.tpoint("IA IE"), TwiceAzimuth())
+    truth = px.AltAz(terms, residual_form="tpoint").set(IA=30 * ARCSEC, IE=-10 * ARCSEC, TwiceAzimuth=15 * ARCSEC)
+    model = px.AltAz(terms, residual_form="tpoint")
+    assert is_affine(model)
+    sites = [_tpoint_site(k, 50) for k in range(3)]
+    sites = [px.simulate(truth, np.asarray(s.encoder), noise=ARCSEC, seed=k) for k, s in enumerate(sites)]
+    data = site_data(model.set(TwiceAzimuth=7 * ARCSEC), sites[0])
+    ours = np.stack([np.asarray(x) for x in site_residuals(model.set(TwiceAzimuth=7 * ARCSEC), data, weighted=False)], -1)
+    np.testing.assert_allclose(ours, np.asarray(px.residuals(model.set(TwiceAzimuth=7 * ARCSEC), sites[0])), rtol=0, atol=1e-15)
+    result = px.fit_batch(model, px.stack_observations(sites))
+    for k, site in enumerate(sites):
+        solo = px.fit(model, site)
+        assert bool(result.converged[k]) and int(result.iterations[k]) == 1
+        np.testing.assert_allclose(np.asarray(result.values[k]), np.asarray(solo.values), rtol=0, atol=1e-12)
+    recovered = float(result.values[0][2]) / ARCSEC
+    assert abs(recovered - 15) < 5 * float(result.sigmas[0][2]) / ARCSEC

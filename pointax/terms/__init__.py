@@ -25,7 +25,7 @@ from . import camera, rigorous, sun_vector, xy
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
-from .base import Term, param, param_fields, param_unit
+from .base import SkyPoint, Term, param, param_fields, param_unit
 from .camera import CameraMounting
 from .gpoint import GPOINT_ALTAZ_TERMS, GpointExtra, GpointTerm, gpoint_extra
 from .harmonic import (
@@ -57,6 +57,7 @@ from .tpoint import (
 
 __all__ = [
     "Term",
+    "SkyPoint",
     "param",
     "param_fields",
     "param_unit",
