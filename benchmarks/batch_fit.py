@@ -417,7 +417,7 @@ def child_memory(n_sites: int, chunk_size: int, variant: dict) -> dict:
 
 def child_compile(n_sites: int, variant: dict) -> dict:
     """First and second call of ``px.fit_batch`` on ``n_sites`` turntables in a fresh
-    process with pointax's compilation cache on (``POINTAX_CACHE_DIR``), seconds."""
+    process with pointax's compilation cache on (``POINTAX_JAX_CACHE``), seconds."""
     px.enable_compilation_cache()
     data = simulate_turntables(n_sites, seed=5)
     starts = turntable_starts(data)
@@ -437,7 +437,7 @@ def measure_cached_compile(n_sites: int, variant_name: str) -> dict:
 
     out = {"variant_name": variant_name}
     with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "POINTAX_CACHE_DIR": cache}
+        env = {**os.environ, "POINTAX_JAX_CACHE": cache}
         cmd = [sys.executable, str(Path(__file__).resolve()), "--child-compile", str(n_sites),
                "--child-variant", json.dumps(VARIANTS[variant_name])]
         for run in ("cold", "warm"):

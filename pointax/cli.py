@@ -65,16 +65,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
-import jax
 import numpy as np
 
 from . import terms as term_library
 from .command import SOLUTIONS, command, command_reflector
 from .compare_cli import add_compare_parser, run_compare
+from .compilation_cache import enable_compilation_cache
 from .fit import LOSSES, SOLVERS, fit
 from .heliostat import calibrate_heliostat
 from .io import (
@@ -336,18 +335,10 @@ def _fit_command(args) -> int:
     return 0 if bool(result.converged) else 1
 
 
-def _enable_compilation_cache() -> None:
-    default = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "pointax" / "jax"
-    cache = os.environ.get("POINTAX_JAX_CACHE", str(default))
-    if cache:
-        jax.config.update("jax_compilation_cache_dir", cache)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    _enable_compilation_cache()
+    enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     try:
         if args.command == "fit":
             return _fit_command(args)

@@ -72,7 +72,6 @@ import numpy as np
 from . import terms as term_library
 from ._x64 import float64
 from .batch import fit_batch, site_result, site_statuses, stack_observations
-from .compilation_cache import enable_compilation_cache
 from .fit import SOLVERS, FitResult
 from .heliostat import calibrate_heliostat
 from .io.paint import FOCAL_SPOT_METHODS, read_paint
@@ -577,10 +576,6 @@ def add_fit_network_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (e.g. tcp://host:8786) to fit on a cluster")
     p.add_argument("--solver", choices=sorted(SOLVERS), default="lm", help="least-squares solver (default: lm)")
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
-    p.add_argument("--cache-dir", metavar="DIR", default=None,
-                   help="keep compiled fits here for later runs (default: $POINTAX_CACHE_DIR or ~/.cache/pointax/xla)")
-    p.add_argument("--no-compilation-cache", action="store_true",
-                   help="compile afresh, keep nothing on disk (see pointax.enable_compilation_cache)")
     return p
 
 
@@ -594,8 +589,6 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
     try:
         if args.chunk_size < 1:
             raise ValueError(f"--chunk-size must be a positive number of sites, got {args.chunk_size}")
-        if not args.no_compilation_cache:
-            enable_compilation_cache(args.cache_dir)
         if args.scheduler:
             try:
                 from distributed import Client

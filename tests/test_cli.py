@@ -224,3 +224,15 @@ def test_fit_gpoint_rejects_tpoint_only_options(capsys):
     assert "South through West" in capsys.readouterr().err
     assert main(["fit", str(GPOINT_SAMPLE), "--format", "gpoint", "--write-model", "x.mod"]) == 2
     assert "lower-case" in capsys.readouterr().err
+
+
+def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
+    from pointax.compilation_cache import default_cache_dir, enable_compilation_cache
+
+    monkeypatch.setenv("POINTAX_JAX_CACHE", "")
+    assert default_cache_dir() is None and enable_compilation_cache() is None
+    monkeypatch.setenv("POINTAX_JAX_CACHE", str(tmp_path / "c"))
+    assert default_cache_dir() == tmp_path / "c"
+    monkeypatch.delenv("POINTAX_JAX_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "x"))
+    assert default_cache_dir() == tmp_path / "x" / "pointax" / "jax"

@@ -11,10 +11,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
-import os
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -48,26 +45,11 @@ def example():
 
 
 def _run(argv: list[str]) -> tuple[int, str, str]:
-    """The command in this process (no compilation cache: it would change this test
-    process's JAX configuration; the cache is tested in a subprocess below)."""
     parser = argparse.ArgumentParser(prog="pointax")
     add_fit_network_parser(parser.add_subparsers(dest="command"))
     out, err = io.StringIO(), io.StringIO()
-    code = run_fit_network(parser.parse_args(["fit-network", *argv, "--no-compilation-cache"]), stdout=out, stderr=err)
+    code = run_fit_network(parser.parse_args(["fit-network", *argv]), stdout=out, stderr=err)
     return code, out.getvalue(), err.getvalue()
-
-
-def test_command_keeps_its_compiled_fits_for_the_next_run(tmp_path):
-    """A fresh process with --cache-dir writes XLA's compiled programs there, and a
-    second run gives the same answers (from the cache)."""
-    cache = tmp_path / "cache"
-    cmd = [sys.executable, "-m", "pointax", "fit-network", str(MANIFEST), "--json", "--quiet", "--cache-dir", str(cache)]
-    env = {**os.environ, "JAX_PLATFORMS": "cpu"}
-    first = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path)
-    assert first.returncode in (0, 1), first.stderr
-    assert any(cache.iterdir()), "nothing was cached"
-    second = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path)
-    assert json.loads(second.stdout) == json.loads(first.stdout)
 
 
 def _truth(site: str) -> dict[str, float]:
