@@ -56,9 +56,9 @@ class Model(eqx.Module):
               from where the model points, sky offsets evaluated at the sky position
               the model reaches (a fixed point). Exact, with no pole.
             * ``"tpoint"``: TPOINT's own residuals, ``(dA cos E, dE)`` with ``d`` the
-              observed angles minus the chain's angles plus the sky offsets evaluated
-              *at the observed position* (DESIGN.md: this is the least-squares problem
-              TPOINT solves). Linear in the coefficients of TPOINT's linear-form terms,
+              observed angles minus the chain's angles and minus the sky offsets, these
+              evaluated *at the observed position* (DESIGN.md: this is the
+              least-squares problem TPOINT solves). Linear in the coefficients of TPOINT's linear-form terms,
               so a fit of them is one linear solve; the fitted values differ from
               ``"sky"``'s at second order (4e-9 rad = 0.0009" on the MMT run,
               ``tests/test_residual_form.py``; 1e-8 rad with offsets of 100",
