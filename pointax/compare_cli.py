@@ -54,7 +54,13 @@ from pathlib import Path
 import numpy as np
 
 from .compare import Comparison, compare
-from .io import GpointFormatError, TpointFormatError, read_gpoint, read_tpoint
+from .io import (
+    FileFormatError,
+    GpointFormatError,
+    TpointFormatError,
+    read_gpoint,
+    read_tpoint,
+)
 from .mounts import AZIMUTH_CONVENTIONS
 from .observations import Observations
 from .terms import FORMS
@@ -63,7 +69,7 @@ from .terms.xy import FAMILIES as XY_FAMILIES
 __all__ = ["add_compare_parser", "run_compare", "read_xy_run", "write_xy_run", "parse_families", "XYFormatError"]
 
 
-class XYFormatError(ValueError):
+class XYFormatError(FileFormatError):
     """An X-Y run file could not be read; the message names file, line and field."""
 
 
@@ -88,23 +94,21 @@ def read_xy_run(path: str | os.PathLike) -> Observations:
         if not fields:
             continue
         if len(fields) != 4:
-            raise XYFormatError(
-                f"{name}:{number}: expected 4 numbers L B L0 B0 (degrees), got {len(fields)}: {line.strip()!r}"
-            )
+            raise XYFormatError(name, number, f"expected 4 numbers L B L0 B0 (degrees), got {len(fields)}: {line.strip()!r}")
         values = []
         for field, token in zip(XY_FIELDS, fields):
             try:
                 x = float(token)
             except ValueError:
-                raise XYFormatError(f"{name}:{number}: field {field}: not a number: {token!r}") from None
+                raise XYFormatError(name, number, f"not a number: {token!r}", f"field {field}") from None
             if not math.isfinite(x):
-                raise XYFormatError(f"{name}:{number}: field {field}: not finite: {token!r}")
+                raise XYFormatError(name, number, f"not finite: {token!r}", f"field {field}")
             if field == "B0" and abs(x) > 90.0:
-                raise XYFormatError(f"{name}:{number}: field {field}: {x} is outside -90..90 deg")
+                raise XYFormatError(name, number, f"{x} is outside -90..90 deg", f"field {field}")
             values.append(x)
         rows.append(values)
     if not rows:
-        raise XYFormatError(f"{name}: no observations (expected lines of L B L0 B0 in degrees)")
+        raise XYFormatError(name, None, "no observations (expected lines of L B L0 B0 in degrees)")
     a = np.radians(np.asarray(rows, np.float64))
     L0, B0 = a[:, 2], a[:, 3]
     target = np.stack([np.sin(L0) * np.cos(B0), np.sin(B0), np.cos(L0) * np.cos(B0)], axis=1)

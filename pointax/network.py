@@ -74,6 +74,7 @@ from ._x64 import float64
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .fit import SOLVERS, FitResult
 from .heliostat import calibrate_heliostat
+from .io.errors import FileFormatError
 from .io.paint import FOCAL_SPOT_METHODS, read_paint
 from .io.sun import read_sun_observations
 from .io.tpoint import read_tpoint
@@ -107,15 +108,12 @@ _DEFAULT_TERMS = {"sun": "full", "tpoint": " ".join(term_library.BASIC_ALTAZ), "
 _STATUSES = ("converged", "degenerate", "failed")
 
 
-class ManifestError(ValueError):
+class ManifestError(FileFormatError):
     """A manifest could not be read; the message names the file, line and field."""
 
     def __init__(self, path: str, line: int | None, message: str, field: str | None = None):
-        self.path, self.line, self.field = path, line, field
-        where = path if line is None else f"{path}:{line}"
-        if field is not None:
-            where += f": field '{field}'"
-        super().__init__(f"{where}: {message}")
+        self.field = field
+        super().__init__(path, line, message, None if field is None else f"field '{field}'")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """File formats: TPOINT input and model files; RTS2 gpoint alt-az runs; PAINT heliostat
 calibration data; sun-tracker observation files (pointax's own text format)."""
 
+from .errors import FileFormatError
 from .gpoint import (
     GPOINT_AZIMUTH,
     GpointFormatError,
@@ -48,6 +49,7 @@ from .tpoint import (
 )
 
 __all__ = [
+    "FileFormatError",
     "SunFormatError",
     "SunRun",
     "format_sun_observations",

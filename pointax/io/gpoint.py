@@ -58,6 +58,7 @@ from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import DEG
+from .errors import FileFormatError
 
 __all__ = ["GpointFormatError", "GpointRun", "read_gpoint", "parse_gpoint", "GPOINT_AZIMUTH", "ROW_FIELDS"]
 
@@ -95,13 +96,8 @@ _EQUATORIAL_KINDS = ("observatory", "gem")
 _HEADER_FIELDS = ("longitude (deg)", "latitude (deg)", "altitude (m)")
 
 
-class GpointFormatError(ValueError):
+class GpointFormatError(FileFormatError):
     """A gpoint file could not be read; the message names file, line and field."""
-
-    def __init__(self, path: str, line: int | None, message: str):
-        self.path, self.line = path, line
-        where = f"{path}:{line}" if line is not None else path
-        super().__init__(f"{where}: {message}")
 
 
 @dataclasses.dataclass(frozen=True)

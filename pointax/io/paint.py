@@ -46,6 +46,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..observations import Observations
+from .errors import FileFormatError
 
 __all__ = [
     "FOCAL_SPOT_METHODS",
@@ -73,7 +74,7 @@ TOWER_FILE = "tower-measurements.json"
 POWER_PLANT_KEY = "power_plant_properties"
 
 
-class PaintFormatError(ValueError):
+class PaintFormatError(FileFormatError):
     """A PAINT JSON file could not be read.
 
     Attributes:
@@ -87,10 +88,8 @@ class PaintFormatError(ValueError):
     """
 
     def __init__(self, path: str, field: str | None, message: str, line: int | None = None):
-        self.path, self.field, self.line, self.message = path, field, line, message
-        where = f"{path}:{line}" if line is not None else path
-        what = f" field {field}:" if field else ""
-        super().__init__(f"{where}:{what} {message}")
+        self.field, self.message = field, message
+        super().__init__(path, line, message, f"field {field}" if field else None)
 
 
 # --------------------------------------------------------------------------- JSON access

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
+from .errors import FileFormatError
 
 __all__ = [
     "SUN_COLUMNS",
@@ -50,15 +51,13 @@ SUN_COLUMNS = ("alpha_deg", "beta_deg", "sun_az_deg", "sun_el_deg", "weight")
 """Column names, in file order (the fifth, ``weight``, is optional)."""
 
 
-class SunFormatError(ValueError):
+class SunFormatError(FileFormatError):
     """A sun-observation file could not be read; the message names file, line and column."""
 
     def __init__(self, path: str, line: int | None, message: str, column: int | None = None):
-        self.path, self.line, self.column = path, line, column
-        where = path if line is None else f"{path}:{line}"
-        if column is not None:
-            where += f": column {column} ({SUN_COLUMNS[column - 1]})"
-        super().__init__(f"{where}: {message}")
+        self.column = column
+        where = None if column is None else f"column {column} ({SUN_COLUMNS[column - 1]})"
+        super().__init__(path, line, message, where)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -46,6 +46,7 @@ from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
+from .errors import FileFormatError
 
 __all__ = [
     "TpointFormatError",
@@ -79,13 +80,8 @@ ALTAZ_FIELDS = ("observed azimuth", "observed elevation", "raw azimuth", "raw el
 MOUNT_OPTIONS = {"ALTAZ", "EQUAT", "GERMAN", "ALTALT", "XY", "FORK"}
 
 
-class TpointFormatError(ValueError):
+class TpointFormatError(FileFormatError):
     """A TPOINT file could not be read; the message names file, line and field."""
-
-    def __init__(self, path: str, line: int | None, message: str):
-        self.path, self.line = path, line
-        where = f"{path}:{line}" if line is not None else path
-        super().__init__(f"{where}: {message}")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,18 +14,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.errors import FileFormatError
+
 __all__ = ["FrameReadError", "read_frame", "FORMATS"]
 
 FORMATS = {".png": "PNG", ".fits": "FITS", ".fit": "FITS", ".fts": "FITS", ".fits.gz": "FITS", ".npy": "NumPy"}
 """File suffixes read, and their formats."""
 
 
-class FrameReadError(ValueError):
+class FrameReadError(FileFormatError):
     """A frame file that cannot be read as one grayscale frame (the message names it)."""
 
     def __init__(self, path, message: str):
-        self.path = str(path)
-        super().__init__(f"{path}: {message}")
+        super().__init__(str(path), None, message)
 
 
 def _suffix(path: Path) -> str:
