@@ -22,6 +22,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.optimize
+from numpy_rotations import Rx as Re
+from numpy_rotations import Ry as Rn
+from numpy_rotations import Rz as Ru
 
 import pointax as px
 from pointax.cli import main
@@ -61,21 +64,6 @@ def np_axis_angles(motor):
         sign = 1.0 if AA39["clockwise"][k] == 1 else -1.0
         out[..., k] = AA39["initial_angle"][k] + sign * (phi(s0) - phi(s))
     return out
-
-
-def Re(t):
-    c, s = math.cos(t), math.sin(t)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def Rn(t):
-    c, s = math.cos(t), math.sin(t)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def Ru(t):
-    c, s = math.cos(t), math.sin(t)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def np_normal(theta, p=None):

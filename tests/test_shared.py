@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy_rotations import Rx, Ry, Rz
 from scipy.optimize import least_squares
 
 import pointax as px
@@ -31,21 +32,6 @@ def _own_start(obs):
     return [0.0, 0.0, *estimate_zeros(np.asarray(obs.encoder), np.asarray(obs.target))]
 
 
-def _rx(a):
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def _ry(a):
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _rz(a):
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
-
 def _scipy_joint(sites, starts):
     """The paper's formula S = Rx(mu0) Ry(nu0) Rz(alpha - alpha0) Ry(omega0) Rx(beta - beta0) y,
     all sites and the shared omega0 in one scipy least-squares problem (chord residuals)."""
@@ -55,7 +41,7 @@ def _scipy_joint(sites, starts):
         for k, obs in enumerate(sites):
             mu, nu, a0, b0 = x[4 * k : 4 * k + 4]
             for (al, be), t in zip(np.asarray(obs.encoder), np.asarray(obs.target)):
-                d = _rx(mu) @ _ry(nu) @ _rz(al - a0) @ _ry(x[-1]) @ _rx(be - b0) @ np.array([0.0, 1.0, 0.0])
+                d = Rx(mu) @ Ry(nu) @ Rz(al - a0) @ Ry(x[-1]) @ Rx(be - b0) @ np.array([0.0, 1.0, 0.0])
                 out.append(d - t)
         return np.concatenate(out)
 

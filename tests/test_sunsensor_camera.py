@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from numpy_rotations import Rx, Ry, Rz
 from scipy.optimize import least_squares
 
 import pointax as px
@@ -111,21 +112,6 @@ def test_camera_rejects_bad_parameters(sensor):
 
 
 # ----------------------------------------------------------- the mounting term (pure JAX)
-
-
-def Rx(t):
-    c, s = np.cos(t), np.sin(t)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def Ry(t):
-    c, s = np.cos(t), np.sin(t)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def Rz(t):
-    c, s = np.cos(t), np.sin(t)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
 # Camera axes in the turntable's frame at zero: x East, y down (-Up), z North.

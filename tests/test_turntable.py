@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from numpy_rotations import Rx, Ry
 from scipy.optimize import least_squares
 
 import pointax as px
@@ -22,16 +23,6 @@ PAPER = {"mu0": 0.0751, "nu0": 0.0145, "omega0": -0.0947, "alpha0": 60.5425, "be
 
 
 # ------------------------------------------------------------- independent model
-
-
-def Rx(t):
-    c, s = np.cos(t), np.sin(t)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def Ry(t):
-    c, s = np.cos(t), np.sin(t)
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
 def Rz_prime(t):
