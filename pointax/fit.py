@@ -367,10 +367,8 @@ def _tpoint_residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     :class:`pointax.Model`)."""
     mount = model.mount
     used = obs.weight > 0
-    # Unused rows (maybe NaN) take the first used row: a place where no term has a pole.
-    first = jnp.argmax(used)
-    encoder = jnp.where(used[:, None], obs.encoder, obs.encoder[first])
-    target = jnp.where(used[:, None], jnp.asarray(obs.target), jnp.asarray(obs.target)[first]) @ mount.frame
+    encoder, target = obs.filled(used)
+    target = target @ mount.frame
 
     def one(reading, direction):
         d, angles = model.chain_direction(reading)

@@ -54,3 +54,15 @@ class Observations(eqx.Module):
         """A subset of the observations (numpy-style index, mask or slice)."""
         index = np.asarray(index) if not isinstance(index, slice) else index
         return Observations(self.encoder[index], self.target[index], self.weight[index], self.convention)
+
+    def filled(self, used: Array) -> tuple[Float[Array, "n 2"], Float[Array, "n 3"]]:
+        """``(encoder, target)`` with the rows not ``used`` replaced by the first used
+        row (pure JAX). Unused rows may hold NaN; a model evaluated there would meet
+        them, or a term's pole (zero readings put an alt-az mount on the horizon, where
+        cot E is infinite), and poison derivatives that ``where`` masks only in value."""
+        first = jnp.argmax(used)
+        encoder, target = jnp.asarray(self.encoder), jnp.asarray(self.target)
+        return (
+            jnp.where(used[:, None], encoder, encoder[first]),
+            jnp.where(used[:, None], target, target[first]),
+        )

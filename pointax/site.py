@@ -125,13 +125,9 @@ def site_geometry(
     mount's convention; None unless ``residual_form="tpoint"``)."""
     mount = model.mount
     used = obs.weight > 0 if used is None else used & (obs.weight > 0)
-    # Unused rows (weight 0, maybe NaN) take the first used row's reading and target: a
-    # place this mount can point at, so no term meets a pole there (zero would put an
-    # alt-az mount on the horizon, where cot E is infinite).
-    first = jnp.argmax(used)
-    reading = jnp.where(used[:, None], obs.encoder, obs.encoder[first])
+    reading, target = obs.filled(used)  # unused rows: the first used row's
     nominal = jax.vmap(mount.axis_angles)(reading)
-    target = jnp.where(used[:, None], jnp.asarray(obs.target), jnp.asarray(obs.target)[first]) @ mount.frame
+    target = target @ mount.frame
     weight = jnp.where(used, obs.weight, 0.0)
     weight = weight * jnp.sum(used) / jnp.sum(weight)
     # Only what the residual form needs (transcendentals dominate this call's cost).
