@@ -37,11 +37,11 @@ from .observations import Observations
 from .site import (
     SiteData,
     is_affine,
+    observed_point,
     residual_function,
     site_geometry,
     with_sky_basis,
 )
-from .terms.base import SkyPoint
 
 SUSPECT_PIVOT = 1e-8
 """A relative Cholesky pivot of the normal matrix below this sends a site to the exact
@@ -238,25 +238,14 @@ def _compiled(fn, static_argnames: tuple[str, ...] = ()):
     return jax.jit(fn, static_argnames=static_argnames, compiler_options=_compiler_options())
 
 
-def _site_geometry_batch(model, obs):
-    return jax.vmap(lambda o: site_geometry(model, o))(obs)
-
-
-def _sky_point_batch(angles) -> SkyPoint:
-    return SkyPoint.at(angles)
-
-
-def _sky_basis_batch(model, data, point) -> SiteData:
-    return jax.vmap(lambda d, p: with_sky_basis(model, d, p))(data, point)
-
-
-def _site_data(model, obs) -> SiteData:
-    """:func:`pointax.site.site_data` for a chunk, in up to three compiled calls (see
-    :func:`pointax.site.with_sky_basis`)."""
-    data, angles = _compiled(_site_geometry_batch)(model, obs)
-    if angles is None:
+def _site_data_batch(model, obs) -> SiteData:
+    """:func:`pointax.site.site_data` for a chunk (a leading site axis), with the
+    observed point for the whole chunk at once (so the mount's pole check is one test)."""
+    data, target = jax.vmap(lambda o: site_geometry(model, o))(obs)
+    if target is None:
         return data
-    return _compiled(_sky_basis_batch)(model, data, _compiled(_sky_point_batch)(angles))
+    point = observed_point(model, data, target)
+    return jax.vmap(lambda d, p: with_sky_basis(model, d, p))(data, point)
 
 
 def _fit_sites_fixed_data(model, values, data, steps, rtol, atol):
@@ -268,7 +257,7 @@ def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
     # The data's trigonometry in its own compiled call, handed over as arrays: inside
     # one computation XLA on the CPU copies the sines and cosines into every fusion
     # that uses them (measured: 136 copies, 20 M transcendentals per 4,000 sites).
-    return _fit_sites_fixed_data(model, values, _site_data(model, obs), steps, rtol, atol)
+    return _fit_sites_fixed_data(model, values, _compiled(_site_data_batch)(model, obs), steps, rtol, atol)
 
 
 @eqx.filter_jit

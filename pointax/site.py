@@ -47,6 +47,7 @@ __all__ = [
     "SiteData",
     "site_data",
     "site_geometry",
+    "observed_point",
     "with_sky_basis",
     "site_residuals",
     "residual_columns",
@@ -97,20 +98,28 @@ def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = 
         used: which observations to fit (default: weight > 0); the weights are
             normalised to mean 1 over these.
     """
-    data, angles = site_geometry(model, obs, used)
-    return with_sky_basis(model, data, None if angles is None else SkyPoint.at(angles))
+    data, target = site_geometry(model, obs, used)
+    return with_sky_basis(model, data, None if target is None else observed_point(model, data, target))
+
+
+def observed_point(model: Model, data: SiteData, target: Float[Array, "*sites n 3"]) -> SkyPoint:
+    """The observed directions' angles in the mount's convention with their sines and
+    cosines (:meth:`pointax.Mount.sky_point_of`, near the nominal angles), ``(*sites,
+    n)`` arrays: for one site or, in a batched fit, a whole chunk at once (where the
+    mount's treatment of its pole runs only when some observation is there)."""
+    return model.mount.sky_point_of(target, data.nominal)
 
 
 def with_sky_basis(model: Model, data: SiteData, point: SkyPoint | None) -> SiteData:
     """``data`` with the observed angles and the unit offsets of the model's linear sky
-    terms at the observed ``point`` (``SkyPoint.at`` of :func:`site_geometry`'s angles;
-    nothing to add when it is None).
+    terms at the observed ``point`` (:func:`observed_point`; nothing to add when it is
+    None).
 
-    Batched fits take the angles, their sines and cosines, and these offsets in three
-    compiled calls: within one computation XLA on the CPU recomputes an ``atan2``, sine
-    or cosine in every output that uses it (measured: 15 transcendental functions per
-    observation for TPOINT's eight basic terms in one call; in three, two ``atan2``,
-    two square roots and four sines and cosines)."""
+    The sines and cosines come from the directions' components, not from the angles
+    (:meth:`pointax.SphericalMount.sky_point_of`), and TPOINT's terms read them from the
+    point: within one computation XLA on the CPU recomputes an ``atan2``, sine or cosine
+    in every output that uses it (15 transcendental functions per observation for
+    TPOINT's eight basic terms once measured; now two ``atan2`` and four square roots)."""
     if point is None:
         return data
     observed = (point.az, point.el, point.cos_el)
@@ -119,10 +128,10 @@ def with_sky_basis(model: Model, data: SiteData, point: SkyPoint | None) -> Site
 
 def site_geometry(
     model: Model, obs: Observations, used: Bool[Array, " n"] | None = None
-) -> tuple[SiteData, tuple[Array, Array] | None]:
+) -> tuple[SiteData, Float[Array, "n 3"] | None]:
     """The first part of :func:`site_data`: everything but what
-    :func:`with_sky_basis` adds, and the observed angles (two ``(n,)`` arrays in the
-    mount's convention; None unless ``residual_form="tpoint"``)."""
+    :func:`with_sky_basis` adds, and the observed directions in the mount frame (for
+    :func:`observed_point`; None unless ``residual_form="tpoint"``)."""
     mount = model.mount
     used = obs.weight > 0 if used is None else used & (obs.weight > 0)
     reading, target = obs.filled(used)  # unused rows: the first used row's
@@ -132,16 +141,13 @@ def site_geometry(
     weight = weight * jnp.sum(used) / jnp.sum(weight)
     # Only what the residual form needs (transcendentals dominate this call's cost).
     # Separate arrays, not one (4, n) array: slices of a stacked array cost copies.
-    trig = target_trig = observed = None
+    trig = target_trig = None
     tpoint = model.residual_form == "tpoint"
     if not tpoint or _rotated(model, nominal):
         trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
-    if tpoint:
-        angles = jax.vmap(mount.angles_of)(target, nominal)
-        observed = (angles[:, 0], angles[:, 1])
-    else:
+    if not tpoint:
         target_trig = _azel_trig(target)
-    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None), observed
+    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None), target if tpoint else None
 
 
 def _azel_trig(v: Float[Array, "n 3"]) -> tuple[Array, Array, Array, Array]:
@@ -528,7 +534,7 @@ def residual_function(params: Sequence[ParameterInfo]):
         t_out = (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
         if not isinstance(ty, SymbolicZero):
             for k, (cx, cy) in enumerate(residual_columns(fitted, data, params)):
-                t_out = (t_out[0] + ty[k] * cx, t_out[1] + ty[k] * cy)
+                t_out = (t_out[0] + _scaled(ty[k], cx), t_out[1] + _scaled(ty[k], cy))
         extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m._replace(params, ys), d))
         if extra is not None:
             t_out = (t_out[0] + extra[0], t_out[1] + extra[1])
@@ -541,6 +547,10 @@ def residual_function(params: Sequence[ParameterInfo]):
         return fn(y, model, data)
 
     return residuals_of
+
+
+def _scaled(t, column):
+    return jnp.where(t == 0, 0.0, t * column)
 
 
 def _other_tangents(model, data, t_model, t_data, f):

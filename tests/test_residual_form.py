@@ -254,3 +254,69 @@ def test_user_linear_term_without_skypoint_takes_the_fast_path():
         np.testing.assert_allclose(np.asarray(result.values[k]), np.asarray(solo.values), rtol=0, atol=1e-12)
     recovered = float(result.values[0][2]) / ARCSEC
     assert abs(recovered - 15) < 5 * float(result.sigmas[0][2]) / ARCSEC
+
+
+class _AzimuthFromMinusY(px.SphericalMount):
+    """A spherical mount whose own angles_of counts axis 1 differently (for the fallback)."""
+
+    def angles_of(self, direction, near):
+        return super().angles_of(direction, near) + jnp.array([0.5, 0.0])
+
+
+@pytest.mark.parametrize("mount", [px.AltAzMount(azimuth="S-E"), px.XYMount(), px.EquatorialMount(0.6), _AzimuthFromMinusY()])
+def test_sky_point_from_components_is_the_angles_with_their_sines(mount):
+    """sky_point_of (sines and cosines from the components) against angles_of and
+    jnp.sin / jnp.cos of its angles: both solutions, the poles, non-unit directions."""
+    rng = np.random.default_rng(8)
+    n = 3000
+    direction = rng.normal(size=(n, 3)) * rng.uniform(0.5, 2.0, (n, 1))
+    direction[:4] = [[0, 0, 1], [0, 0, -2], [0, 0, 0.5], [1e-200, 0, 1]]  # the poles, and next to one
+    near = np.stack([rng.uniform(-12, 12, n), rng.uniform(-3, 3, n)], -1)  # both solutions, many turns
+    angles = np.asarray(jax.vmap(mount.angles_of)(jnp.asarray(direction), jnp.asarray(near)))
+    first = np.abs(angles[:, 1]) <= np.pi / 2
+    assert first.any() and (~first).any()
+    expected = [angles[:, 0], angles[:, 1], np.sin(angles[:, 0]), np.cos(angles[:, 0]), np.sin(angles[:, 1]), np.cos(angles[:, 1])]
+    for how, point in [
+        ("eager", mount.sky_point_of(jnp.asarray(direction), jnp.asarray(near))),
+        ("jit", jax.jit(lambda d, n: mount.sky_point_of(d, n))(direction, near)),
+        ("vmap", jax.vmap(mount.sky_point_of)(jnp.asarray(direction), jnp.asarray(near))),
+    ]:
+        assert isinstance(point, px.terms.SkyPoint)
+        for name, ours, ref in zip(point._fields, point, expected):
+            np.testing.assert_allclose(np.asarray(ours), ref, rtol=0, atol=4e-15, err_msg=f"{how}: {name}")
+
+
+class CosAzimuthInElevation(px.Term):
+    """A linear sky term finite at the zenith whose offset there depends on the azimuth."""
+
+    coef: float = px.terms.param(0.0)
+    linear_sky_offset = True
+
+    def sky_offset_at(self, point):
+        return angle_pair(0.0, self.coef * point.cos_az)
+
+    def sky_offset(self, angles):
+        return self.sky_offset_at(px.terms.SkyPoint.at(angles))
+
+
+def test_batch_with_an_observation_at_the_zenith_equals_solo_fits():
+    """At the pole the observed azimuth is the encoder's; the batch takes its sine and
+    cosine (a branch that runs only then) and agrees with solo fits."""
+    terms = (*px.terms.tpoint("IA IE"), CosAzimuthInElevation())
+    model = px.AltAz(terms, residual_form="tpoint")
+    truth = model.set(IA=30 * ARCSEC, IE=-10 * ARCSEC, CosAzimuthInElevation=15 * ARCSEC)
+    sites = []
+    for k in range(3):
+        raw = np.array(_tpoint_site(k, 40).encoder)
+        raw[3, 1] = np.pi / 2 + 10 * ARCSEC  # the encoders near the zenith (IE = -10")
+        obs = px.simulate(truth, raw, noise=ARCSEC, seed=k)
+        target = np.array(obs.target)
+        if k != 1:
+            target[3] = [0.0, 0.0, 1.0]  # the star exactly there
+        sites.append(px.Observations(raw, target, convention=obs.convention))
+    result = px.fit_batch(model, px.stack_observations(sites))
+    for k, site in enumerate(sites):
+        solo = px.fit(model, site)
+        assert bool(result.converged[k]) and bool(solo.converged)
+        np.testing.assert_allclose(np.asarray(result.values[k]), np.asarray(solo.values), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(result.residuals[k]), np.asarray(solo.residuals), rtol=0, atol=1e-13)
