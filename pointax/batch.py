@@ -269,15 +269,18 @@ def _fit_sites(model, values, obs, solver, max_steps, rtol, atol, loss, loss_sca
 
 
 def _pad_sites(tree, size: int):
-    """Pad the leading (site) axis of every leaf to ``size`` with copies of site 0."""
+    """Pad the leading (site) axis of every leaf to ``size`` with copies of site 0, and
+    hand the leaves to JAX in one ``device_put`` (``jnp.asarray`` would compile a small
+    program per new shape). They may share memory with the NumPy arrays: nothing here
+    writes to those while the fits that read them run."""
 
     def pad(x):
         x = np.asarray(x)
-        if x.shape[0] == size:
-            return jnp.asarray(x)
-        return jnp.asarray(np.concatenate([x, np.repeat(x[:1], size - x.shape[0], axis=0)]))
+        if x.shape[0] < size:
+            x = np.concatenate([x, np.repeat(x[:1], size - x.shape[0], axis=0)])
+        return x
 
-    return jax.tree.map(pad, tree)
+    return jax.device_put(jax.tree.map(pad, tree), may_alias=True)
 
 
 def _host(x) -> np.ndarray:
@@ -391,7 +394,6 @@ def fit_batch(
             y0, obs = chunk_inputs(start, stop)
             pending.append((start, stop, y0, obs, _fit_sites_fixed(model, y0, obs, int(steps), rtol, atol)))
         for start, stop, y0, obs, (out, suspect) in pending:
-            out = dataclasses.replace(out, solver=solver)
             n = stop - start
             again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
             if again.size:
@@ -403,7 +405,8 @@ def fit_batch(
                     _pad_sites(_take_sites(obs, again), pad),
                     solver, max_steps, rtol, atol, loss, loss_scale, reject,
                 )
-                redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps))
+                # (the solver's name is static: one name for the batch, set at the end)
+                redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps), solver=out.solver)
                 out = _put_sites(out, again, redo)
             results.append(_first_sites(out, n))
             if progress is not None:
@@ -415,6 +418,7 @@ def fit_batch(
             results.append(_first_sites(out, stop - start))
             if progress is not None:
                 progress(stop, n_sites)
-    # Assembled on the host: JAX's slicing and concatenation would each compile a small
-    # computation per result field on the first call (0.6 s measured).
-    return jax.tree.map(lambda *xs: jnp.asarray(np.concatenate(xs)), *results)
+    # Assembled on the host: JAX's slicing and concatenation (and jnp.asarray) would each
+    # compile a small computation per result field on the first call (0.6 s measured).
+    result = jax.device_put(jax.tree.map(lambda *xs: np.concatenate(xs), *results), may_alias=True)
+    return dataclasses.replace(result, solver=solver)
