@@ -138,3 +138,21 @@ def test_stack_and_argument_errors():
         px.fit_batch(px.Turntable("full"), batch, values=np.zeros((3, 5)))
     with pytest.raises(ValueError, match="stack_observations"):
         px.fit_batch(px.Turntable("full"), a)
+
+
+def test_small_batches_share_one_compilation(network):
+    """Batches smaller than a chunk are padded to a power of two: 9 and 13 sites (both
+    16) reuse one compiled fit, and the padding changes no result."""
+    from pointax import batch as batch_module
+
+    sites, _ = network
+    fit = batch_module._compiled(batch_module._fixed_steps_fits, ("steps", "rtol", "atol"))
+    model = px.Turntable("full")
+    values = np.array([_start(s) for s in sites])
+    nine = px.fit_batch(model, px.stack_observations(sites, n_obs=60), values=values)
+    compiled = fit._cache_size()
+    more = sites + sites[:4]
+    thirteen = px.fit_batch(model, px.stack_observations(more, n_obs=60), values=np.concatenate([values, values[:4]]))
+    assert fit._cache_size() == compiled
+    np.testing.assert_array_equal(np.asarray(thirteen.values[:9]), np.asarray(nine.values))
+    np.testing.assert_array_equal(np.asarray(thirteen.values[9:]), np.asarray(nine.values[:4]))
