@@ -200,15 +200,17 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     # The covariance from the last step's Jacobian (at the point before the last update,
     # which is below the tolerances: the difference is of the order of that update).
     low, pivots = normal_equations.cholesky(normal_equations.normal_matrix(cols))
-    f_now = jnp.concatenate(rw)
     if is_affine(model):
         # The same Jacobian everywhere: the update still to come, from the final residuals.
         update = normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
-        f_change = sum((update[k] * jnp.concatenate(c) for k, c in enumerate(cols)), jnp.zeros_like(f_now))
+        f_change = [sum(update[k] * c[i] for k, c in enumerate(cols)) if m else 0.0 for i in range(2)]
     else:
-        f_change = jnp.concatenate(step_change) if m else jnp.zeros_like(f_now)
+        f_change = step_change
     fitted = model._replace(params, [y[k] for k in range(m)])
-    small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y)) & jnp.all(jnp.abs(f_change) <= atol + rtol * jnp.abs(f_now))
+    # Per residual component (a concatenation would copy every column once more).
+    small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y))
+    for change, now in zip(f_change, rw):
+        small = small & jnp.all(jnp.abs(change) <= atol + rtol * jnp.abs(now))
     suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
     unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
     result = least_squares_result(
