@@ -550,6 +550,10 @@ def residual_function(params: Sequence[ParameterInfo]):
 
 
 def _scaled(t, column):
+    """``t * column``, exactly 0 where ``t`` is: the solver takes the Jacobian's columns
+    as the tangent map of unit vectors, and XLA cannot drop ``0 * column`` itself (NaN,
+    inf), so each column would be computed from every column's arrays (measured:
+    the TPOINT fit call 17% slower)."""
     return jnp.where(t == 0, 0.0, t * column)
 
 
