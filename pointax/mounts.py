@@ -32,7 +32,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .rotations import azel_to_enu, enu_to_azel, rot_x, rot_z, tangent_offset, wrap_pi
+from .rotations import (
+    azel_to_enu,
+    azel_trig,
+    enu_to_azel,
+    rot_x,
+    rot_z,
+    tangent_offset,
+    wrap_pi,
+)
 from .terms.base import SkyPoint
 
 __all__ = [
@@ -192,22 +200,17 @@ class SphericalMount(Mount):
         if type(self).angles_of is not SphericalMount.angles_of:  # a subclass's own angles
             return super().sky_point_of(direction, near)
         direction, near = jnp.asarray(direction), jnp.asarray(near)
-        x, y, z = direction[..., 0], direction[..., 1], direction[..., 2]
-        a1, a2 = enu_to_azel(direction)
-        horizontal2 = x * x + y * y
-        at_pole = horizontal2 <= 1e-300  # as _on_axis(direction, 2)
-        a1, a2, first = _nearest(a1, a2, near[..., 0], near[..., 1], at_pole)
+        x, y = direction[..., 0], direction[..., 1]
+        at_pole = x * x + y * y <= 1e-300  # as _on_axis(direction, 2)
+        a1, a2, first = _nearest(*enu_to_azel(direction), near[..., 0], near[..., 1], at_pole)
         sign = jnp.where(first, 1.0, -1.0)  # the other solution: a1 + pi, pi - a2
-        horizontal = jnp.sqrt(jnp.where(at_pole, 1.0, horizontal2))
-        sin1, cos1 = x / horizontal, y / horizontal
+        cos1, sin1, cos2, sin2 = azel_trig(direction)
 
         def near_trig(sin1, cos1):
             return jnp.where(at_pole, jnp.sin(near[..., 0]), sin1), jnp.where(at_pole, jnp.cos(near[..., 0]), cos1)
 
         sin1, cos1 = jax.lax.cond(jnp.any(at_pole), near_trig, lambda s, c: (s, c), sin1, cos1)
-        r = jnp.sqrt(horizontal2 + z * z)
-        cos2 = jnp.where(at_pole, 0.0, horizontal) / r
-        return SkyPoint(a1, a2, sign * sin1, sign * cos1, z / r, sign * cos2)
+        return SkyPoint(a1, a2, sign * sin1, sign * cos1, sin2, sign * cos2)
 
 
 class AltAzMount(SphericalMount):

@@ -33,6 +33,7 @@ __all__ = [
     "azel_to_enu",
     "azel_to_enu_numpy",
     "enu_to_azel",
+    "azel_trig",
     "tangent_basis",
     "tangent_offset",
     "offset_angle",
@@ -137,6 +138,20 @@ def enu_to_azel(v: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch"]
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
     horizontal = _safe_hypot(x, y)
     return _safe_atan2(x, y), jnp.arctan2(z, horizontal)
+
+
+def azel_trig(v: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch"], ...]:
+    """``(cos az, sin az, cos el, sin el)`` of directions ``v`` as :func:`enu_to_azel`
+    defines their angles (azimuth 0 at the zenith and nadir), from the components with
+    no trigonometric function: ``cos el = hypot(x, y) / |v|``, ``sin az = x / hypot(x,
+    y)``, ... (batched fits take these for every observation)."""
+    v = jnp.asarray(v)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    h2 = x * x + y * y
+    ok = h2 > _TINY
+    h = jnp.sqrt(jnp.where(ok, h2, 1.0))
+    r = jnp.sqrt(h2 + z * z)
+    return jnp.where(ok, y / h, 1.0), jnp.where(ok, x / h, 0.0), jnp.where(ok, h, 0.0) / r, z / r
 
 
 def tangent_basis(ref: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch 3"], Float[Array, "*batch 3"]]:

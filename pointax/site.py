@@ -40,7 +40,7 @@ from jaxtyping import Array, Bool, Float
 
 from .model import Model, ParameterInfo
 from .observations import Observations
-from .rotations import wrap_pi
+from .rotations import azel_trig, wrap_pi
 from .terms.base import SkyPoint
 
 __all__ = [
@@ -146,22 +146,8 @@ def site_geometry(
     if not tpoint or _rotated(model, nominal):
         trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
     if not tpoint:
-        target_trig = _azel_trig(target)
+        target_trig = azel_trig(target)
     return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None), target if tpoint else None
-
-
-def _azel_trig(v: Float[Array, "n 3"]) -> tuple[Array, Array, Array, Array]:
-    """cos and sin of the azimuth and elevation of directions ``v`` (as
-    :func:`pointax.rotations.enu_to_azel` defines them: azimuth 0 at the poles) from
-    the components, with no inverse or direct trigonometric function."""
-    x, y, z = v[:, 0], v[:, 1], v[:, 2]
-    h2 = x * x + y * y
-    off_pole = h2 > 1e-300
-    h = jnp.sqrt(jnp.where(off_pole, h2, 1.0))
-    r = jnp.sqrt(h2 + z * z)
-    cos_az = jnp.where(off_pole, y / h, 1.0)
-    sin_az = jnp.where(off_pole, x / h, 0.0)
-    return cos_az, sin_az, jnp.where(off_pole, h, 0.0) / r, z / r
 
 
 def is_affine(model: Model) -> bool:

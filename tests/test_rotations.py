@@ -860,3 +860,16 @@ def test_offset_angle_is_the_angle_to_the_offset_direction():
     # Independent: the great-circle angle by atan2(|a x b|, a . b).
     want = np.arctan2(np.linalg.norm(np.cross(ref, moved), axis=-1), np.sum(ref * moved, axis=-1))
     np.testing.assert_allclose(np.asarray(rot.offset_angle(off)), want, rtol=0, atol=1e-13)
+
+
+def test_azel_trig_is_cos_and_sin_of_the_numpy_angles(rng):
+    """Against numpy's cos and sin of arctan2 angles, with non-unit directions, the
+    zenith and nadir (azimuth 0 there, as enu_to_azel) and a direction next to the pole."""
+    v = rng.normal(size=(500, 3)) * rng.uniform(0.01, 100.0, (500, 1))
+    v[:3] = [[0.0, 0.0, 2.0], [0.0, 0.0, -0.5], [1e-140, 0.0, 1.0]]  # (1e-140: just off the pole)
+    az = np.arctan2(v[:, 0], v[:, 1])
+    az[:2] = 0.0
+    el = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1]))
+    ours = [np.asarray(x) for x in rot.azel_trig(jnp.asarray(v))]
+    for name, got, want in zip(("cos az", "sin az", "cos el", "sin el"), ours, (np.cos(az), np.sin(az), np.cos(el), np.sin(el))):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-15, err_msg=name)
