@@ -193,7 +193,7 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     # affine models, and for the others wrong by the square of the last update (a site
     # whose update is not below the tolerances goes to the full loop anyway). Evaluating
     # the model once more cost a sixth of a step and 0.3 s of compilation.
-    step_change = [sum(update[k] * c[i] for k, c in enumerate(cols)) if m else 0.0 for i in range(2)]
+    step_change = _along(cols, update)
     rw = tuple(b + dc for b, dc in zip(state.f_info.residual, step_change))  # 0 where unused
     safe_w = jnp.where(data.sqrt_weight > 0, data.sqrt_weight, 1.0)
     r = jnp.stack([jnp.where(data.used, x / safe_w, 0.0) for x in rw], axis=-1)
@@ -203,7 +203,7 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     if is_affine(model):
         # The same Jacobian everywhere: the update still to come, from the final residuals.
         update = normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
-        f_change = [sum(update[k] * c[i] for k, c in enumerate(cols)) if m else 0.0 for i in range(2)]
+        f_change = _along(cols, update)
     else:
         f_change = step_change
     fitted = model._replace(params, [y[k] for k in range(m)])
@@ -217,6 +217,11 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
         fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps, small, "gauss-newton"
     )
     return result, suspect
+
+
+def _along(cols: list, update) -> list:
+    """``J @ update`` as the two residual components, from J's columns (0 with no column)."""
+    return [sum(update[k] * c[i] for k, c in enumerate(cols)) if cols else 0.0 for i in range(2)]
 
 
 FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
