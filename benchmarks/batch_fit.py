@@ -432,6 +432,17 @@ def child_compile(n_sites: int, variant: dict) -> dict:
     return {"sites": n_sites, "first_call_s": times[0], "steady_s": min(times[1:]), "compile_s": times[0] - min(times[1:])}
 
 
+def _child(options: list[str], variant_name: str, env: dict | None = None) -> dict:
+    """Run this script in a fresh process with ``options`` (a ``--child-...`` probe) and
+    the variant's keyword arguments; its last line of output as a dict, or ``{"error":
+    ...}`` with the end of its standard error."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), *options, "--child-variant", json.dumps(VARIANTS[variant_name])]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        return {"error": proc.stderr[-2000:]}
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
 def measure_cached_compile(n_sites: int, variant_name: str) -> dict:
     """Compile seconds of a fresh process, twice, sharing a new compilation cache: the
     first run compiles (cold), the second loads what the first kept (warm)."""
@@ -440,25 +451,19 @@ def measure_cached_compile(n_sites: int, variant_name: str) -> dict:
     out = {"variant_name": variant_name}
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "POINTAX_JAX_CACHE": cache}
-        cmd = [sys.executable, str(Path(__file__).resolve()), "--child-compile", str(n_sites),
-               "--child-variant", json.dumps(VARIANTS[variant_name])]
         for run in ("cold", "warm"):
-            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-            if proc.returncode != 0:
-                return {"error": proc.stderr[-2000:], **out}
-            out[run] = json.loads(proc.stdout.strip().splitlines()[-1])
+            child = _child(["--child-compile", str(n_sites)], variant_name, env)
+            if "error" in child:
+                return {**child, **out}
+            out[run] = child
     return out
 
 
 def measure_memory(n_sites: int, chunk_size: int, variant_name: str) -> dict:
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--child-memory", str(n_sites), "--chunk-size", str(chunk_size),
-           "--child-variant", json.dumps(VARIANTS[variant_name])]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        return {"error": proc.stderr[-2000:], "sites": n_sites}
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
-    out["variant_name"] = variant_name
-    return out
+    child = _child(["--child-memory", str(n_sites), "--chunk-size", str(chunk_size)], variant_name)
+    if "error" in child:
+        return {**child, "sites": n_sites}
+    return {**child, "variant_name": variant_name}
 
 
 # =========================================================================== main
