@@ -29,7 +29,8 @@ dE), its first-order form).
 
 For each method and batch size it reports fits per second in steady state (the best
 of the repeated calls after the first; the JSON also has their median), compile seconds
-(first call minus steady),
+(first call minus steady; the JSON also has ``compile_work_s``, the tracing, lowering and
+XLA time JAX itself reports during the first call),
 and the largest parameter difference from scipy's LM (radians; encoder zeros compared
 modulo 2 pi) over the sites both fitted; loops over sites (scipy, katpoint) are timed
 on a subset (``--n-ref`` sites) and give per-fit rates. It also measures the peak
@@ -335,10 +336,40 @@ def optimistix_vmap_solver() -> Callable:
 # =========================================================================== timing
 
 
+_COMPILE_EVENTS: list[tuple[float, float]] | None = None  # (start, end) while recording
+
+
+def _compile_event(name: str, seconds: float, **_) -> None:
+    if _COMPILE_EVENTS is not None and name.startswith("/jax/core/compile/") and name.endswith("_duration"):
+        end = time.perf_counter()
+        _COMPILE_EVENTS.append((end - seconds, end))
+
+
+jax.monitoring.register_event_duration_secs_listener(_compile_event)
+
+
+def _covered(intervals: list[tuple[float, float]]) -> float:
+    """Total length of the union of ``(start, end)`` intervals (nested traces count once)."""
+    total, reach = 0.0, -np.inf
+    for start, end in sorted(intervals):
+        if end > reach:
+            total += end - max(start, reach)
+            reach = end
+    return total
+
+
 def timed(call: Callable, size: int, budget_s: float = 3.0, max_repeats: int = 10):
-    """First call (with compilation) and the best of repeated calls after it, seconds."""
+    """First call (with compilation) and the best of repeated calls after it, seconds.
+    ``compile_s`` is the first call minus the best; ``compile_work_s`` the time JAX itself
+    reports for tracing, lowering and XLA compilation during the first call (the first
+    call's other costs and the machine's noise left out)."""
+    global _COMPILE_EVENTS
+    _COMPILE_EVENTS = []
     t0 = time.perf_counter()
-    out = jax.block_until_ready(call())
+    try:
+        out = jax.block_until_ready(call())
+    finally:
+        events, _COMPILE_EVENTS = _COMPILE_EVENTS, None
     first = time.perf_counter() - t0
     steady = []
     while len(steady) < max_repeats and (not steady or sum(steady) < budget_s):
@@ -354,6 +385,7 @@ def timed(call: Callable, size: int, budget_s: float = 3.0, max_repeats: int = 1
         "steady_s": best,
         "first_call_s": first,
         "compile_s": max(first - best, 0.0),
+        "compile_work_s": _covered(events),
         "repeats": len(steady),
     }
 
@@ -596,7 +628,10 @@ def check_targets(out: dict, sizes) -> dict:
     targets = {
         "judged_at_sites": int(size),
         "turntable_fits_per_s>=50000": target(best_tt, tt[best_tt]["fits_per_s"], tt[best_tt]["fits_per_s"] >= 50_000),
-        "turntable_compile_s<=2": target(best_tt, tt[best_tt]["compile_s"], tt[best_tt]["compile_s"] <= 2.0),
+        "turntable_compile_s<=2": {
+            **target(best_tt, tt[best_tt]["compile_s"], tt[best_tt]["compile_s"] <= 2.0),
+            "compile_work_s": tt[best_tt].get("compile_work_s"),
+        },
         "turntable_max_param_diff_rad<=1e-8": target(
             best_tt, diff, diff is not None and diff <= 1e-8 and tt[best_tt]["not_converged_here"] == 0
         ),
@@ -702,6 +737,8 @@ def main() -> dict:
             shown = f"{v:.3g}" if isinstance(v, float) else v
             verdict = {True: "PASS", False: "FAIL", None: "n/a (smaller run)"}[value["pass"]]
             print(f"  {key:<40s} {verdict:<17s} {shown}  ({value.get('variant', '')})")
+            if value.get("compile_work_s") is not None:
+                print(f"  {'':<40s} {'':<17s} (of which JAX reported {value['compile_work_s']:.2f} s tracing, lowering, compiling)")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=2) + "\n")
     print(f"\nwrote {args.out} ({out['seconds']:.0f} s)")
