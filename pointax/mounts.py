@@ -200,8 +200,7 @@ class SphericalMount(Mount):
         if type(self).angles_of is not SphericalMount.angles_of:  # a subclass's own angles
             return super().sky_point_of(direction, near)
         direction, near = jnp.asarray(direction), jnp.asarray(near)
-        x, y = direction[..., 0], direction[..., 1]
-        at_pole = x * x + y * y <= 1e-300  # as _on_axis(direction, 2)
+        at_pole = _on_axis(direction, 2)
         a1, a2, first = _nearest(*enu_to_azel(direction), near[..., 0], near[..., 1], at_pole)
         sign = jnp.where(first, 1.0, -1.0)  # the other solution: a1 + pi, pi - a2
         cos1, sin1, cos2, sin2 = azel_trig(direction)
@@ -245,9 +244,10 @@ class AltAzMount(SphericalMount):
 
 
 def _on_axis(direction, axis: int):
-    """Whether ``direction`` lies exactly along coordinate axis ``axis`` (0, 1 or 2)."""
+    """Whether ``direction`` (``(..., 3)``) lies exactly along coordinate axis ``axis``
+    (0, 1 or 2)."""
     others = [k for k in range(3) if k != axis]
-    return direction[others[0]] ** 2 + direction[others[1]] ** 2 <= 1e-300
+    return direction[..., others[0]] ** 2 + direction[..., others[1]] ** 2 <= 1e-300
 
 
 def nearest_solution(a1, a2, near, at_pole=False):
