@@ -36,7 +36,8 @@ modulo 2 pi) over the sites both fitted; loops over sites (scipy, katpoint) are 
 on a subset (``--n-ref`` sites) and give per-fit rates. It also measures the peak
 resident memory of a child process fitting ``--memory-sites`` sites in chunks with
 pointax, and (full runs) the compile seconds of a fresh process run twice with pointax's
-compilation cache (``px.enable_compilation_cache``): cold, then warm. Writes ``benchmarks/results/batch_fit.json`` (``--quick``: ``batch_fit_quick.json``,
+compilation cache (``px.enable_compilation_cache``): cold, then warm. Writes
+``benchmarks/results/batch_fit.json`` (``--quick``: ``batch_fit_quick.json``,
 so a short run never overwrites the full one).
 
     .venv/bin/python benchmarks/batch_fit.py            # full run (sizes 1, 100, 10,000)

@@ -58,10 +58,11 @@ class Model(eqx.Module):
             * ``"tpoint"``: TPOINT's own residuals, ``(dA cos E, dE)`` with ``d`` the
               observed angles minus the chain's angles and minus the sky offsets, these
               evaluated *at the observed position* (DESIGN.md: this is the
-              least-squares problem TPOINT solves). Linear in the coefficients of TPOINT's linear-form terms,
-              so a fit of them is one linear solve; the fitted values differ from
-              ``"sky"``'s at second order (4e-9 rad = 0.0009" on the MMT run,
-              ``tests/test_residual_form.py``; 1e-8 rad with offsets of 100",
+              least-squares problem TPOINT solves). Linear in the coefficients of
+              TPOINT's linear-form terms, so a fit of them is one linear solve; the
+              fitted values differ from ``"sky"``'s at second order (4e-9 rad =
+              0.0009" on the MMT run, ``tests/test_residual_form.py``; 1e-8 rad with
+              offsets of 100",
               ``benchmarks/batch_fit.py``).
               Needs a mount with spherical angles (alt-az, X-Y, equatorial).
     """
