@@ -42,6 +42,7 @@ from .model import Model, ParameterInfo
 from .observations import Observations
 from .rotations import azel_trig, wrap_pi
 from .terms.base import SkyPoint
+from .trig import sincos
 
 __all__ = [
     "SiteData",
@@ -144,7 +145,8 @@ def site_geometry(
     trig = target_trig = None
     tpoint = model.residual_form == "tpoint"
     if not tpoint or _rotated(model, nominal):
-        trig = (jnp.cos(nominal[:, 0]), jnp.sin(nominal[:, 0]), jnp.cos(nominal[:, 1]), jnp.sin(nominal[:, 1]))
+        (sin1, cos1), (sin2, cos2) = sincos(nominal[:, 0]), sincos(nominal[:, 1])
+        trig = (cos1, sin1, cos2, sin2)
     if not tpoint:
         target_trig = azel_trig(target)
     return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None), target if tpoint else None
