@@ -32,6 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from . import trig
 from .rotations import (
     azel_to_enu,
     azel_trig,
@@ -201,7 +202,8 @@ class SphericalMount(Mount):
             return super().sky_point_of(direction, near)
         direction, near = jnp.asarray(direction), jnp.asarray(near)
         at_pole = _on_axis(direction, 2)
-        a1, a2, first = _nearest(*enu_to_azel(direction), near[..., 0], near[..., 1], at_pole)
+        # One compiled call computes this for every observation: the polynomial arctangent.
+        a1, a2, first = _nearest(*enu_to_azel(direction, trig.atan2), near[..., 0], near[..., 1], at_pole)
         sign = jnp.where(first, 1.0, -1.0)  # the other solution: a1 + pi, pi - a2
         cos1, sin1, cos2, sin2 = azel_trig(direction)
 

@@ -20,6 +20,8 @@ zenith and at the poles of the azimuth for valid inputs (the singular ``atan2`` 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -122,22 +124,26 @@ def _safe_hypot(x: Array, y: Array) -> Array:
     return jnp.where(ok, jnp.sqrt(jnp.where(ok, r2, 1.0)), 0.0)
 
 
-def _safe_atan2(y: Array, x: Array) -> Array:
+def _safe_atan2(y: Array, x: Array, atan2=jnp.arctan2) -> Array:
     """atan2 that returns 0 with a zero gradient at (0, 0) instead of NaN."""
     ok = (x * x + y * y) > _TINY
-    return jnp.where(ok, jnp.arctan2(jnp.where(ok, y, 0.0), jnp.where(ok, x, 1.0)), 0.0)
+    return jnp.where(ok, atan2(jnp.where(ok, y, 0.0), jnp.where(ok, x, 1.0)), 0.0)
 
 
-def enu_to_azel(v: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch"], Float[Array, "*batch"]]:
+def enu_to_azel(
+    v: Float[ArrayLike, "*batch 3"], atan2: Callable[[Array, Array], Array] = jnp.arctan2
+) -> tuple[Float[Array, "*batch"], Float[Array, "*batch"]]:
     """Azimuth (from North through East, in (-pi, pi]) and elevation of a direction.
 
     ``v`` need not be normalised (its norm must lie between about 1e-150 and 1e150).
     At the zenith and nadir the azimuth is taken as 0 and its gradient as zero.
+    ``atan2``: the arctangent to use; :func:`pointax.trig.atan2` (a vectorised
+    polynomial) for many observations at once in their own compiled call.
     """
     v = jnp.asarray(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
     horizontal = _safe_hypot(x, y)
-    return _safe_atan2(x, y), jnp.arctan2(z, horizontal)
+    return _safe_atan2(x, y, atan2), atan2(z, horizontal)
 
 
 def azel_trig(v: Float[ArrayLike, "*batch 3"]) -> tuple[Float[Array, "*batch"], ...]:

@@ -1,28 +1,32 @@
-"""Sine and cosine of float64 arrays as vectorised polynomials.
+"""Sine, cosine and arctangent of float64 arrays as vectorised polynomials.
 
-XLA on the CPU computes ``sin`` and ``cos`` in float64 by calling the C library once per
-element: 6-7 ns each on this project's machine, against 0.5 ns for a multiply-add pass
-over the same array. :func:`sincos` computes both from one argument reduction and two
-short polynomials in plain array arithmetic, which XLA vectorises: about 1.5 ns for
-the pair (``benchmarks/batch_fit_notes.md``, change 9).
+XLA on the CPU computes ``sin``, ``cos`` and ``atan2`` in float64 by calling the C
+library once per element: 6-10 ns each on this project's machine, against 0.5 ns for a
+multiply-add pass over the same array. :func:`sincos` computes both from one argument
+reduction and two short polynomials in plain array arithmetic, which XLA vectorises:
+about 1.5 ns for the pair; :func:`atan2` about 1.3-1.7 ns against 10-14
+(``benchmarks/batch_fit_notes.md``, change 9).
 
-The method is fdlibm's (Sun's C library, the basis of most others): ``x`` is reduced
-to ``r = x - q pi/2``, ``|r| <= pi/4``, with ``pi/2`` in Cody and Waite's parts of 33
-bits (each part's product with ``q`` is exact for ``|q| < 2^20``) and the rest; ``sin
-r`` and ``cos r`` come from fdlibm's minimax polynomials (errors below ``2^-58`` on
-``|r| <= pi/4``); the quadrant ``q mod 4`` picks and signs them. Accuracy
+Both follow fdlibm (Sun's C library, the basis of most others). :func:`sincos` reduces
+``x`` to ``r = x - q pi/2``, ``|r| <= pi/4``, with ``pi/2`` in Cody and Waite's parts
+of 33 bits (each part's product with ``q`` is exact for ``|q| < 2^20``) and the rest,
+takes ``sin r`` and ``cos r`` from fdlibm's minimax polynomials (errors below ``2^-58``
+on ``|r| <= pi/4``), and lets the quadrant ``q mod 4`` pick and sign them. Accuracy
 (``tests/test_trig.py``, against NumPy): within two units in the last place for ``|x|
 < 1e5`` rad, also where the sine or cosine is near 0. Beyond about ``1.6e6`` rad
 (``2^20 pi/2``) the reduction loses accuracy gradually: such arguments are not for this
 function. Infinite or NaN arguments give NaN, and ``sin(-0) = -0``, as in the C
-library. Derivatives are exact (a ``jax.custom_jvp``: ``d sin = cos dx``, ``d cos =
--sin dx``). Arguments other than float64 go to ``jnp.sin`` and ``jnp.cos``.
+library. :func:`atan2` is described in its docstring. Derivatives are exact (each
+function has a ``jax.custom_jvp``); arguments other than float64 go to ``jnp``'s own
+functions.
 
-Where pointax uses it: the observations' encoder angles in a batched fit's site data
-(:mod:`pointax.site`), computed once per observation in their own compiled call. Not
-inside the compiled fit: there XLA copies a cheap producer into each of its consumers,
-and the polynomials of the per-site rotation angles, copied into 28 fusions, made the
-module a third larger and its compilation slower (change 9).
+Where pointax uses them: in a batched fit's site data, computed once per observation in
+their own compiled call: the encoder angles' sines and cosines (:mod:`pointax.site`)
+and the observed angles of the TPOINT residual form
+(:meth:`pointax.SphericalMount.sky_point_of`). Not inside the compiled fit: there XLA
+copies a cheap producer into each of its consumers, and the polynomials of the
+per-site rotation angles, copied into 28 fusions, made the module a third larger and
+its compilation slower (change 9).
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-__all__ = ["sincos"]
+__all__ = ["sincos", "atan2"]
 
 # pi/2 in three parts of 33 significant bits and what is left (fdlibm's pio2_1, pio2_2,
 # pio2_3, pio2_3t), and 2/pi.
@@ -96,3 +100,64 @@ def sincos(x: Float[ArrayLike, "*shape"]) -> tuple[Float[Array, "*shape"], Float
     if x.dtype != jnp.float64:
         return jnp.sin(x), jnp.cos(x)
     return _sincos64(x)
+
+
+# fdlibm's __ieee754_atan coefficients (aT[0..10]): atan(t) = t - t (s1 + s2) for |t| < 7/16.
+_ATAN = (
+    3.33333333333329318027e-01,
+    -1.99999999998764832476e-01,
+    1.42857142725034663711e-01,
+    -1.11111104054623557880e-01,
+    9.09088713343650656196e-02,
+    -7.69187620504482999495e-02,
+    6.66107313738753120669e-02,
+    -5.83357013379057348645e-02,
+    4.97687799461593236017e-02,
+    -3.65315727442169155270e-02,
+    1.62858201153657823623e-02,
+)
+_TAN_PI_8 = 4.14213562373095034520e-01  # sqrt(2) - 1
+_PIO4_HI, _PIO4_LO = 7.85398163397448278999e-01, 3.06161699786838301793e-17  # atan(1) = hi + lo
+_PIO2_HI, _PIO2_LO = 1.57079632679489655800e00, 6.12323399573676603587e-17
+_PI_HI, _PI_LO = 3.14159265358979311600e00, 1.22464679914735317720e-16
+
+
+@jax.custom_jvp
+def _atan2_64(y: Array, x: Array) -> Array:
+    ax, ay = jnp.abs(x), jnp.abs(y)
+    swap = ay > ax  # atan2 = pi/2 - atan(|x| / |y|)
+    num, den = jnp.where(swap, ax, ay), jnp.where(swap, ay, ax)  # 0 <= num <= den
+    big = num > _TAN_PI_8 * den  # atan(t) = pi/4 + atan((t - 1) / (t + 1))
+    safe_den = jnp.where(den == 0.0, 1.0, den)
+    t = jnp.where(big, (num - den) / (num + jnp.where(big, den, 1.0)), num / safe_den)  # |t| <= tan(pi/8)
+    z = t * t
+    w = z * z
+    s1 = z * (_ATAN[0] + w * (_ATAN[2] + w * (_ATAN[4] + w * (_ATAN[6] + w * (_ATAN[8] + w * _ATAN[10])))))
+    s2 = w * (_ATAN[1] + w * (_ATAN[3] + w * (_ATAN[5] + w * (_ATAN[7] + w * _ATAN[9]))))
+    a = t - t * (s1 + s2)  # atan(t)
+    a = jnp.where(big, _PIO4_HI + (a + _PIO4_LO), a)  # atan(num / den) in [0, pi/4]
+    a = jnp.where(swap, _PIO2_HI - (a - _PIO2_LO), a)  # atan(|y| / |x|) in [0, pi/2]
+    a = jnp.where(jnp.signbit(x), _PI_HI - (a - _PI_LO), a)  # x < 0 (or -0): pi - that
+    return jnp.where(jnp.signbit(y), -a, a)
+
+
+@_atan2_64.defjvp
+def _atan2_64_jvp(primals, tangents):
+    (y, x), (dy, dx) = primals, tangents
+    r2 = x * x + y * y
+    return _atan2_64(y, x), (x * dy - y * dx) / r2  # NaN at (0, 0), as jnp.arctan2's
+
+
+def atan2(y: Float[ArrayLike, "*shape"], x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+    """``atan2(y, x)`` elementwise, in ``[-pi, pi]``, as ``jnp.arctan2`` but a vectorised
+    polynomial in float64 (fdlibm's ``atan`` after reducing ``min(|x|, |y|) /
+    max(|x|, |y|)`` below ``tan(pi/8)``): within two units in the last place of NumPy's.
+    ``atan2(+-0, +0) = +-0`` and ``atan2(+-0, -0) = +-pi`` as in the C library; NaN in,
+    NaN out; both arguments infinite gives NaN (the C library: a multiple of ``pi/4``).
+    Derivatives are exact (``(x dy - y dx) / (x^2 + y^2)``). Arguments other than
+    float64 go to ``jnp.arctan2``."""
+    y, x = jnp.asarray(y), jnp.asarray(x)
+    if jnp.result_type(y, x) != jnp.float64:
+        return jnp.arctan2(y, x)
+    y, x = jnp.broadcast_arrays(y.astype(jnp.float64), x.astype(jnp.float64))
+    return _atan2_64(y, x)
