@@ -84,13 +84,25 @@ def solve(low: list[list[Array]], b: list[Array]) -> Float[Array, " m"]:
 
 
 def inverse(low: list[list[Array]]) -> Float[Array, "m m"]:
-    """``(L L^T)^-1`` from the Cholesky factor."""
+    """``(L L^T)^-1 = L^-T L^-1`` from the Cholesky factor (``L^-1`` by forward
+    substitution, then its inner products: about half the operations of solving for
+    each column of the identity)."""
     m = len(low)
-    cols = []
+    if not m:
+        return jnp.zeros((0, 0))
+    inv = [[None] * m for _ in range(m)]  # L^-1, lower triangular
     for j in range(m):
-        e = [jnp.asarray(1.0 if i == j else 0.0) for i in range(m)]
-        cols.append(solve(low, e))
-    return jnp.stack(cols, axis=-1) if cols else jnp.zeros((0, 0))
+        inv[j][j] = 1.0 / low[j][j]
+        for i in range(j + 1, m):
+            t = low[i][j] * inv[j][j]
+            for k in range(j + 1, i):
+                t = t + low[i][k] * inv[k][j]
+            inv[i][j] = -t / low[i][i]
+    out = [[None] * m for _ in range(m)]
+    for i in range(m):
+        for j in range(i + 1):
+            out[i][j] = out[j][i] = sum(inv[k][i] * inv[k][j] for k in range(i, m))
+    return jnp.stack([jnp.stack(row, axis=-1) for row in out], axis=-2)
 
 
 def columns(operator: lx.AbstractLinearOperator) -> list:
