@@ -137,7 +137,7 @@ def site_geometry(
     used = obs.weight > 0 if used is None else used & (obs.weight > 0)
     reading, target = obs.filled(used)  # unused rows: the first used row's
     nominal = jax.vmap(mount.axis_angles)(reading)
-    target = target @ mount.frame
+    target = _in_mount_frame(mount, target)
     weight = jnp.where(used, obs.weight, 0.0)
     weight = weight * jnp.sum(used) / jnp.sum(weight)
     # Only what the residual form needs (transcendentals dominate this call's cost).
@@ -441,14 +441,29 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
     return wrap_pi(d1) * cos2, d2
 
 
-def _boresight(mount) -> list:
-    """The mount's boresight as three entries: Python floats when it is a constant (so
-    that its zeros are skipped), else traced scalars."""
+def _constant_entries(x) -> list:
+    """The entries of a vector or matrix as Python floats when it is a constant (so that
+    its zeros and ones are skipped), else as traced scalars."""
     try:
         with jax.ensure_compile_time_eval():
-            return [float(x) for x in np.asarray(mount.boresight, np.float64)]
+            return np.asarray(x, np.float64).tolist()
     except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
-        return list(mount.boresight)
+        x = jnp.asarray(x)
+        return [x[i] if x.ndim == 1 else [x[i, j] for j in range(x.shape[1])] for i in range(x.shape[0])]
+
+
+def _boresight(mount) -> list:
+    """The mount's boresight as three entries (:func:`_constant_entries`)."""
+    return _constant_entries(mount.boresight)
+
+
+def _in_mount_frame(mount, v: Float[Array, "n 3"]) -> Float[Array, "n 3"]:
+    """``v @ mount.frame`` entry by entry: the frame is usually a constant signed
+    permutation, and XLA on the CPU runs even a product with the identity as a library
+    call."""
+    frame = _constant_entries(mount.frame)
+    components = [v[:, i] for i in range(3)]
+    return jnp.stack([_dot([frame[i][j] for i in range(3)], components) for j in range(3)], axis=-1)
 
 
 def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple[Array, Array]:
