@@ -534,14 +534,17 @@ def residual_function(params: Sequence[ParameterInfo]):
         ys = _values(y, n)
         fitted = model._replace(params, ys)
         out = site_residuals(fitted, data)
-        t_out = (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
+        # Sums started from their first term, not from zeros: a linearisation stores every
+        # constant it meets as an array (see _scaled).
+        parts = []
         if not isinstance(ty, SymbolicZero):
-            for k, (cx, cy) in enumerate(residual_columns(fitted, data, params)):
-                t_out = (t_out[0] + _scaled(ty[k], cx), t_out[1] + _scaled(ty[k], cy))
+            parts += [(_scaled(ty[k], cx), _scaled(ty[k], cy)) for k, (cx, cy) in enumerate(residual_columns(fitted, data, params))]
         extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m._replace(params, ys), d))
         if extra is not None:
-            t_out = (t_out[0] + extra[0], t_out[1] + extra[1])
-        return out, t_out
+            parts.append(extra)
+        if not parts:
+            return out, (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
+        return out, (sum(p[0] for p in parts[1:]) + parts[0][0], sum(p[1] for p in parts[1:]) + parts[0][1])
 
     fn.defjvp(fn_jvp, symbolic_zeros=True)
 
@@ -556,8 +559,11 @@ def _scaled(t, column):
     """``t * column``, exactly 0 where ``t`` is: the solver takes the Jacobian's columns
     as the tangent map of unit vectors, and XLA cannot drop ``0 * column`` itself (NaN,
     inf), so each column would be computed from every column's arrays (measured:
-    the TPOINT fit call 17% slower)."""
-    return jnp.where(t == 0, 0.0, t * column)
+    the TPOINT fit call 17% slower). Written with no constant (the zero is ``t``'s own,
+    the test ``t``'s conversion to bool): ``jax.linearize`` stores each constant it meets
+    as an array, which the batched fit carried from step to step and XLA could no longer
+    fold away (``benchmarks/batch_fit_notes.md``, change 9)."""
+    return jnp.where(t.astype(bool), t * column, t)
 
 
 def _other_tangents(model, data, t_model, t_data, f):
