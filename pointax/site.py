@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import equinox as eqx
 import jax
@@ -441,27 +441,29 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
     return wrap_pi(d1) * cos2, d2
 
 
-def _constant_entries(x) -> list:
-    """The entries of a vector or matrix as Python floats when it is a constant (so that
-    its zeros and ones are skipped), else as traced scalars."""
+def _constant_entries(get: Callable[[], Array]) -> list:
+    """The entries of the vector or matrix ``get()`` as Python floats when it is a
+    constant (so that its zeros and ones are skipped), else as traced scalars. ``get``
+    runs under ``jax.ensure_compile_time_eval`` (a property evaluated outside it would
+    already be traced)."""
     try:
         with jax.ensure_compile_time_eval():
-            return np.asarray(x, np.float64).tolist()
+            return np.asarray(get(), np.float64).tolist()
     except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
-        x = jnp.asarray(x)
+        x = jnp.asarray(get())
         return [x[i] if x.ndim == 1 else [x[i, j] for j in range(x.shape[1])] for i in range(x.shape[0])]
 
 
 def _boresight(mount) -> list:
     """The mount's boresight as three entries (:func:`_constant_entries`)."""
-    return _constant_entries(mount.boresight)
+    return _constant_entries(lambda: mount.boresight)
 
 
 def _in_mount_frame(mount, v: Float[Array, "n 3"]) -> Float[Array, "n 3"]:
     """``v @ mount.frame`` entry by entry: the frame is usually a constant signed
     permutation, and XLA on the CPU runs even a product with the identity as a library
     call."""
-    frame = _constant_entries(mount.frame)
+    frame = _constant_entries(lambda: mount.frame)
     components = [v[:, i] for i in range(3)]
     return jnp.stack([_dot([frame[i][j] for i in range(3)], components) for j in range(3)], axis=-1)
 

@@ -11,6 +11,7 @@ import pytest
 
 import pointax as px
 from pointax import normal_equations as ne
+from pointax import site
 from pointax.simulate import encoder_grid
 from pointax.site import residual_columns, residual_function, site_data, site_residuals
 
@@ -115,3 +116,21 @@ def test_normal_cholesky_matches_numpy_least_squares():
     assert np.max(np.abs(np.asarray(x) - ref)) < 1e-14 * np.linalg.cond(a.T @ a) * max(1.0, np.max(np.abs(ref)))
     assert np.max(np.abs(np.asarray(inv) - np.linalg.inv(a.T @ a))) < 1e-9 * np.linalg.cond(a.T @ a) * np.max(np.abs(np.linalg.inv(a.T @ a)))
     assert np.all(np.asarray(pivots) > 0) and np.min(np.asarray(pivots)) < 1e-3  # the correlated column shows
+
+
+def test_constant_mount_geometry_is_constant_while_tracing():
+    # The structured evaluation skips the zeros and ones of a constant boresight and
+    # frame: that needs them as Python floats inside jit, not as traced values.
+    seen = {}
+
+    def f(model):
+        seen["boresight"] = site._boresight(model.mount)
+        seen["frame"] = site._constant_entries(lambda: model.mount.frame)
+        return 0.0
+
+    for model in (px.Turntable("full"), px.AltAz(px.terms.tpoint(("IA",)), azimuth="S-E")):
+        with jax.enable_x64(True):
+            jax.jit(f)(model)
+        assert all(type(x) is float for x in seen["boresight"])
+        assert all(type(x) is float for row in seen["frame"] for x in row)
+        np.testing.assert_array_equal(seen["frame"], np.asarray(model.mount.frame))
