@@ -10,7 +10,7 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     print(px.fit(model, run).report())
 """
 
-from . import distributed, io, network, rotations, sky, stars, terms, units
+from . import distributed, io, network, rotations, sky, stars, terms, trig, units
 from .batch import fit_batch, site_result, site_statuses, stack_observations
 from .command import Command, command, command_reflector, reflect_normal
 from .compare import Comparison, ModelBuild, build_model, compare
@@ -88,6 +88,7 @@ __all__ = [
     "sky",
     "stars",
     "terms",
+    "trig",
     "Turntable",
     "TurntableMount",
     "units",
