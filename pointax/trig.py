@@ -128,13 +128,11 @@ def _atan2_64(y: Array, x: Array) -> Array:
     swap = ay > ax  # atan2 = pi/2 - atan(|x| / |y|)
     num, den = jnp.where(swap, ax, ay), jnp.where(swap, ay, ax)  # 0 <= num <= den
     big = num > _TAN_PI_8 * den  # atan(t) = pi/4 + atan((t - 1) / (t + 1))
-    safe_den = jnp.where(den == 0.0, 1.0, den)
-    t = jnp.where(big, (num - den) / (num + jnp.where(big, den, 1.0)), num / safe_den)  # |t| <= tan(pi/8)
+    t = jnp.where(big, (num - den) / (num + den), num / jnp.where(den == 0.0, 1.0, den))  # |t| <= tan(pi/8)
     z = t * t
     w = z * z
-    s1 = z * (_ATAN[0] + w * (_ATAN[2] + w * (_ATAN[4] + w * (_ATAN[6] + w * (_ATAN[8] + w * _ATAN[10])))))
-    s2 = w * (_ATAN[1] + w * (_ATAN[3] + w * (_ATAN[5] + w * (_ATAN[7] + w * _ATAN[9]))))
-    a = t - t * (s1 + s2)  # atan(t)
+    # fdlibm's split into even and odd coefficients, each a polynomial in t^4.
+    a = t - t * (z * _horner(w, _ATAN[0::2]) + w * _horner(w, _ATAN[1::2]))  # atan(t)
     a = jnp.where(big, _PIO4_HI + (a + _PIO4_LO), a)  # atan(num / den) in [0, pi/4]
     a = jnp.where(swap, _PIO2_HI - (a - _PIO2_LO), a)  # atan(|y| / |x|) in [0, pi/2]
     a = jnp.where(jnp.signbit(x), _PI_HI - (a - _PI_LO), a)  # x < 0 (or -0): pi - that
