@@ -153,7 +153,15 @@ def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float,
 
     n = data.used.shape[-1]
     f_struct = (jax.ShapeDtypeStruct((n,), y0.dtype), jax.ShapeDtypeStruct((n,), y0.dtype))
-    state = eqx.filter_vmap(lambda y, d: solver.init(with_aux, y, (model, d), {}, f_struct, None, frozenset()))(y0, data)
+    # The initial state for one site, broadcast to all sites, with each site's start as
+    # y_eval (where the first step evaluates; the rest of the state depends on the start
+    # only through its shape). optimistix's init traces the linearisation for its shapes,
+    # and under vmap JAX batched that trace too: 0.1 s of a fresh process's first call.
+    one_site = jax.tree.map(lambda x: x[0], (y0, data))
+    state = solver.init(with_aux, one_site[0], (model, one_site[1]), {}, f_struct, None, frozenset())
+    n_sites = y0.shape[0]
+    state = jax.tree.map(lambda x: jnp.broadcast_to(x, (n_sites, *x.shape)) if eqx.is_array(x) else x, state)
+    state = eqx.tree_at(lambda s: s.y_eval, state, y0)
     # optimistix's own steps in a fixed-count loop (one traced step: compiles once; an
     # unrolled loop compiled 2-3x longer and ran no faster, see benchmarks/batch_fit_notes.md).
     dynamic, static = eqx.partition(state, eqx.is_array)

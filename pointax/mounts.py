@@ -81,14 +81,17 @@ class Mount(eqx.Module):
     axis_names: ClassVar[tuple[str, str]] = ("axis1", "axis2")
 
     @property
-    def boresight(self) -> Float[Array, "3"]:
-        """Boresight direction at zero axis angles, in the mount frame."""
+    def boresight(self) -> Float[ArrayLike, "3"]:
+        """Boresight direction at zero axis angles, in the mount frame (a NumPy array
+        when it is a constant, as :attr:`frame`)."""
         raise NotImplementedError
 
     @property
-    def frame(self) -> Float[Array, "3 3"]:
-        """Matrix taking mount-frame vectors to East-North-Up."""
-        return jnp.eye(3)
+    def frame(self) -> Float[ArrayLike, "3 3"]:
+        """Matrix taking mount-frame vectors to East-North-Up (a NumPy array when it is a
+        constant: fits then skip its zeros while tracing, and no small program is
+        compiled to make it)."""
+        return np.eye(3)
 
     @property
     def convention(self) -> str | None:
@@ -168,8 +171,8 @@ class SphericalMount(Mount):
     """
 
     @property
-    def boresight(self) -> Float[Array, "3"]:
-        return jnp.array([0.0, 1.0, 0.0])
+    def boresight(self) -> Float[ArrayLike, "3"]:
+        return np.array([0.0, 1.0, 0.0])
 
     def axis1(self, angle):
         # Axis 1 turns from +y through +x: clockwise seen from the +z pole.
@@ -237,8 +240,8 @@ class AltAzMount(SphericalMount):
     # exactly as N-E does in ENU, and the +z pole is the zenith.
 
     @property
-    def frame(self) -> Float[Array, "3 3"]:
-        return jnp.array(AZIMUTH_CONVENTIONS[self.azimuth])
+    def frame(self) -> Float[ArrayLike, "3 3"]:
+        return np.array(AZIMUTH_CONVENTIONS[self.azimuth])
 
     @property
     def convention(self) -> str:
@@ -305,8 +308,8 @@ class XYMount(SphericalMount):
     axis_names: ClassVar[tuple[str, str]] = ("L", "B")
 
     @property
-    def frame(self) -> Float[Array, "3 3"]:
-        return jnp.array(XY_FRAME)
+    def frame(self) -> Float[ArrayLike, "3 3"]:
+        return np.array(XY_FRAME)
 
     @property
     def convention(self) -> str:
@@ -397,8 +400,8 @@ class TurntableMount(Mount):
     axis_names: ClassVar[tuple[str, str]] = ("alpha", "beta")
 
     @property
-    def boresight(self) -> Float[Array, "3"]:
-        return jnp.array([0.0, 1.0, 0.0])
+    def boresight(self) -> Float[ArrayLike, "3"]:
+        return np.array([0.0, 1.0, 0.0])
 
     @property
     def convention(self) -> str:
@@ -489,8 +492,8 @@ class HeliostatMount(Mount):
         )
 
     @property
-    def boresight(self) -> Float[Array, "3"]:
-        return jnp.array([0.0, -1.0, 0.0])
+    def boresight(self) -> Float[ArrayLike, "3"]:
+        return np.array([0.0, -1.0, 0.0])
 
     @property
     def convention(self) -> str:

@@ -260,11 +260,14 @@ _FORM_ANGLES = (0.0, math.pi / 2, math.pi, 0.7, 2.3, -1.9)
 
 
 def _axis_form_uncached(axis_fn):
+    # All six angles in one compiled call, run at once even while a fit is traced. Op by
+    # op each operation compiled a kernel of its own (~0.1 s of a fit's first call), and
+    # so did the constants in a call made under jax.ensure_compile_time_eval (~0.2 s).
     try:
-        with jax.ensure_compile_time_eval():
-            # All six angles in one compiled call (evaluated op by op, each operation
-            # compiled a kernel of its own: ~0.1 s of a fit's first call).
-            at = np.asarray(jax.jit(jax.vmap(axis_fn))(jnp.asarray(_FORM_ANGLES, jnp.float64)), np.float64)
+        traced = jax.jit(jax.vmap(axis_fn)).trace(jax.ShapeDtypeStruct((len(_FORM_ANGLES),), jnp.float64))
+        if len(traced.jaxpr.in_avals) != 1:  # it reads traced values (the mount's fields)
+            return None
+        at = np.asarray(traced.lower().compile()(np.asarray(_FORM_ANGLES, np.float64)), np.float64)
     except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
         return None
     r0, r90, r180 = at[0], at[1], at[2]

@@ -12,6 +12,7 @@ import pytest
 import pointax as px
 from pointax import normal_equations as ne
 from pointax import site
+from pointax.rotations import rot_z
 from pointax.simulate import encoder_grid
 from pointax.site import residual_columns, residual_function, site_data, site_residuals
 
@@ -134,3 +135,24 @@ def test_constant_mount_geometry_is_constant_while_tracing():
         assert all(type(x) is float for x in seen["boresight"])
         assert all(type(x) is float for row in seen["frame"] for x in row)
         np.testing.assert_array_equal(seen["frame"], np.asarray(model.mount.frame))
+
+
+def test_axis_form_while_tracing():
+    # Inside jit the fixed-axis form alpha + beta sin t + gamma cos t is still found for a
+    # constant axis, and equals the axis rotation (NumPy's cos and sin of Rz); an axis
+    # that reads a traced value has no constant form (None), not an error.
+    seen = {}
+
+    def f(tilt):
+        seen["constant"] = site._axis_form_uncached(rot_z)
+        seen["traced"] = site._axis_form_uncached(lambda t: rot_z(t + tilt))
+        return tilt
+
+    with jax.enable_x64(True):
+        jax.jit(f)(0.1)
+    assert seen["traced"] is None
+    alpha, beta, gamma = seen["constant"]
+    for t in RNG.uniform(-7, 7, 5):
+        c, s = np.cos(t), np.sin(t)
+        rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        np.testing.assert_allclose(alpha + beta * s + gamma * c, rz, rtol=0, atol=1e-15)
