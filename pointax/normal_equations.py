@@ -5,7 +5,9 @@ parameters. Under ``jax.vmap`` over thousands of sites, LAPACK's QR or Cholesky 
 library call per site; written out as elementwise arithmetic on ``(sites,)`` arrays the
 same factorisation runs vectorised across sites (the cost is measured in
 ``benchmarks/batch_fit_notes.md``). :class:`NormalCholesky` is that solver for
-optimistix / lineax; :func:`cholesky` and :func:`inverse` serve the statistics.
+optimistix / lineax, :class:`CholeskyGaussNewton` optimistix's Gauss-Newton with it that
+keeps the last factor for the statistics; :func:`cholesky` and :func:`inverse` serve the
+statistics.
 
 The normal equations square the condition number: fine in float64 for pointing models
 (their worst correlations, ~0.997, cost about 3 of 16 digits), not for near-degenerate
@@ -17,12 +19,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import lineax as lx
+import optimistix as optx
 from jaxtyping import Array, Float
 
-__all__ = ["NormalCholesky", "columns", "inner", "normal_matrix", "cholesky", "solve", "inverse", "MAX_UNROLLED"]
+__all__ = ["NormalCholesky", "CholeskyGaussNewton", "factor_entries", "columns", "inner", "normal_matrix", "cholesky", "solve", "inverse", "MAX_UNROLLED"]
 
 MAX_UNROLLED = 16
 """Systems with more unknowns than this use ``jnp.linalg`` (the unrolled code grows as
@@ -128,13 +132,15 @@ class NormalCholesky(lx.AbstractLinearSolver):
         cols = columns(operator)
         if len(cols) > MAX_UNROLLED:
             j = jnp.stack([_flat(c) for c in cols], axis=-1)
-            return cols, jnp.linalg.cholesky(j.T @ j)
-        low, _ = cholesky(normal_matrix(cols))
-        return cols, low
+            a = j.T @ j
+            low = jnp.linalg.cholesky(a)
+            return cols, low, jnp.diagonal(low) ** 2 / jnp.diagonal(a)
+        low, pivots = cholesky(normal_matrix(cols))
+        return cols, low, pivots
 
     def compute(self, state, vector, options: dict[str, Any]):
         del options
-        cols, low = state
+        cols, low, _ = state
         if isinstance(low, list):
             x = solve(low, [inner(c, vector) for c in cols])
         else:
@@ -150,3 +156,73 @@ class NormalCholesky(lx.AbstractLinearSolver):
 
     def assume_full_rank(self):
         return True
+
+
+def factor_entries(low) -> list[list[Array]]:
+    """A Cholesky factor as nested lists of entries (:func:`cholesky`'s form), from
+    either that form or an ``(m, m)`` array (:class:`NormalCholesky` above
+    :data:`MAX_UNROLLED` unknowns)."""
+    if isinstance(low, list):
+        return low
+    m = low.shape[-1]
+    return [[low[..., i, j] if j <= i else 0.0 for j in range(m)] for i in range(m)]
+
+
+class _CholeskyNewtonState(eqx.Module):
+    newton: Array
+    low: Any  # the factor of J^T J at the last linearisation (NormalCholesky's form)
+    pivots: Array
+    result: optx.RESULTS
+
+
+class CholeskyNewtonDescent(optx.AbstractDescent):
+    """optimistix's Newton descent for least squares (``J^T J x = J^T r``) through
+    :class:`NormalCholesky`, keeping the Cholesky factor and its relative pivots in its
+    state (``state.descent_state.low``, ``.pivots``): after the last step they are the
+    factor at the solver's ``f_info.jac``, and the statistics need not factorise again."""
+
+    def init(self, y: Array, f_info_struct) -> _CholeskyNewtonState:
+        del f_info_struct
+        m = y.shape[0]
+        zero = jnp.zeros((), y.dtype)
+        if m > MAX_UNROLLED:
+            low = jnp.zeros((m, m), y.dtype)
+        else:  # the structure cholesky() returns: Python zeros above the diagonal
+            low = [[zero if j <= i else 0.0 for j in range(m)] for i in range(m)]
+        return _CholeskyNewtonState(y, low, jnp.zeros((m,), y.dtype), optx.RESULTS.successful)
+
+    def query(self, y: Array, f_info, state: _CholeskyNewtonState) -> _CholeskyNewtonState:
+        del y, state
+        solver = NormalCholesky()
+        solver_state = solver.init(f_info.jac, {})
+        newton, _, _ = solver.compute(solver_state, f_info.residual, {})
+        _, low, pivots = solver_state
+        return _CholeskyNewtonState(newton, low, pivots, optx.RESULTS.successful)
+
+    def step(self, step_size, state: _CholeskyNewtonState):
+        return -step_size * state.newton, state.result
+
+
+def _quiet(**kwargs) -> None:
+    del kwargs
+
+
+class CholeskyGaussNewton(optx.AbstractGaussNewton):
+    """optimistix's Gauss-Newton (full steps, its Cauchy termination) with
+    :class:`CholeskyNewtonDescent`: the same iterates as ``optx.GaussNewton(rtol, atol,
+    linear_solver=NormalCholesky())``, and the last factor in ``state.descent_state``."""
+
+    rtol: float
+    atol: float
+    norm: Any
+    descent: CholeskyNewtonDescent
+    search: optx.LearningRate
+    verbose: Any
+
+    def __init__(self, rtol: float, atol: float, norm=optx.max_norm):
+        self.rtol = rtol
+        self.atol = atol
+        self.norm = norm
+        self.descent = CholeskyNewtonDescent()
+        self.search = optx.LearningRate(1.0)
+        self.verbose = _quiet

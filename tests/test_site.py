@@ -119,6 +119,39 @@ def test_normal_cholesky_matches_numpy_least_squares():
     assert np.all(np.asarray(pivots) > 0) and np.min(np.asarray(pivots)) < 1e-3  # the correlated column shows
 
 
+@pytest.mark.parametrize("m", [3, ne.MAX_UNROLLED + 2])
+def test_cholesky_gauss_newton_keeps_the_last_factor(m):
+    # The same iterates as optimistix's GaussNewton with NormalCholesky, and after the
+    # last step the factor and pivots of J^T J at the state's Jacobian: references are
+    # numpy's Cholesky of jax.jacfwd's J^T J, and J's squared column norms.
+    import optimistix as optx
+
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 3.0, 4 * m)
+    truth = rng.normal(0.0, 0.5, m)
+    data = np.sum([truth[k] * np.cos((k + 1) * t + 0.3 * truth[k]) for k in range(m)], axis=0) + 1e-3 * rng.normal(size=t.size)
+
+    def fn(y, args):
+        return jnp.sum(jnp.stack([y[k] * jnp.cos((k + 1) * t + 0.3 * y[k]) for k in range(m)]), axis=0) - data
+
+    y0 = jnp.asarray(truth + 0.01)
+    with jax.enable_x64(True):
+        ours = ne.CholeskyGaussNewton(rtol=1e-12, atol=1e-14)
+        theirs = optx.GaussNewton(rtol=1e-12, atol=1e-14, linear_solver=ne.NormalCholesky())
+        sol_ours = optx.least_squares(fn, ours, y0, max_steps=50)
+        sol_theirs = optx.least_squares(fn, theirs, y0, max_steps=50)
+        state = sol_ours.state
+        jac = jax.jacfwd(lambda y: fn(y, None))(sol_ours.value)  # where the last step linearised
+        low = ne.factor_entries(state.descent_state.low)
+        low = np.array([[float(x) for x in row] for row in low])
+        pivots = np.asarray(state.descent_state.pivots)
+    np.testing.assert_array_equal(np.asarray(sol_ours.value), np.asarray(sol_theirs.value))
+    a = np.asarray(jac).T @ np.asarray(jac)
+    ref = np.linalg.cholesky(a)
+    np.testing.assert_allclose(low, ref, rtol=1e-10, atol=1e-12 * np.max(np.abs(ref)))
+    np.testing.assert_allclose(pivots, np.diag(ref) ** 2 / np.diag(a), rtol=1e-10)
+
+
 def test_constant_mount_geometry_is_constant_while_tracing():
     # The structured evaluation skips the zeros and ones of a constant boresight and
     # frame: that needs them as Python floats inside jit, not as traced values.
