@@ -188,7 +188,28 @@ def _unit_offsets(model: Model, point: SkyPoint):
 # ------------------------------------------------------------------ 3x3 algebra on entries
 # A matrix is a 3x3 nested list of entries; an entry is a Python float (a constant known
 # when tracing: zeros and ones are skipped), a scalar array (the same for every
-# observation of the site) or an (n,) array. A vector is a list of three such entries.
+# observation of the site), an (n,) array, or the negative of an array (_Neg: its sign
+# ends in a subtraction, see _mul). A vector is a list of three such entries;
+# _value turns an entry into an array or float.
+
+
+class _Neg:
+    """``-x`` for an array ``x``, not yet computed."""
+
+    __slots__ = ("x",)
+
+    def __init__(self, x):
+        self.x = x
+
+
+def _value(a):
+    return -a.x if isinstance(a, _Neg) else a
+
+
+def _neg(a):
+    if isinstance(a, _Neg):
+        return a.x
+    return -a if isinstance(a, float) else _Neg(a)
 
 
 def _is_const(x, value: float) -> bool:
@@ -196,8 +217,17 @@ def _is_const(x, value: float) -> bool:
 
 
 def _mul(a, b):
+    """``a * b`` with constant zeros, ones and minus ones skipped. A sign stays symbolic
+    (``_Neg``) until an addition takes it: a rotation's ``-sin`` computed on its own is a
+    product of the data alone, which XLA moved out of the fit's loop once per Jacobian
+    column, so that the columns no longer shared their common terms (the fit's module
+    was a third larger)."""
     if _is_const(a, 0.0) or _is_const(b, 0.0):
         return 0.0
+    if isinstance(a, _Neg) or _is_const(a, -1.0):
+        return _neg(_mul(_neg(a), b))
+    if isinstance(b, _Neg) or _is_const(b, -1.0):
+        return _neg(_mul(a, _neg(b)))
     if _is_const(a, 1.0):
         return b
     if _is_const(b, 1.0):
@@ -210,6 +240,10 @@ def _add(a, b):
         return b
     if _is_const(b, 0.0):
         return a
+    if isinstance(b, _Neg):
+        return _neg(a.x + b.x) if isinstance(a, _Neg) else a - b.x
+    if isinstance(a, _Neg):
+        return b - a.x
     return a + b
 
 
@@ -274,7 +308,9 @@ def _axis_form_uncached(axis_fn):
     checks = list(zip(_FORM_ANGLES[3:], at[3:]))
     alpha, gamma = (r0 + r180) / 2, (r0 - r180) / 2
     beta = r90 - alpha
-    alpha, beta, gamma = (np.where(np.abs(m) < 1e-14, 0.0, m) for m in (alpha, beta, gamma))
+    # Entries within rounding of an integer are that integer (sin pi is 1.2e-16, not 0:
+    # beta's 1 came out as 1 - 1.1e-16), so that the fit skips its zeros and ones.
+    alpha, beta, gamma = (np.where(np.abs(m - np.round(m)) < 1e-14, np.round(m), m) for m in (alpha, beta, gamma))
     for t, r in checks:
         if not np.allclose(alpha + beta * np.sin(t) + gamma * np.cos(t), r, rtol=0, atol=1e-13):
             return None
@@ -390,7 +426,7 @@ def _chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
     v = _boresight(mount)
     v = _apply_chain(chain, v)
     n = nominal.shape[0]
-    v = [jnp.broadcast_to(jnp.asarray(x, nominal.dtype), (n,)) for x in v]
+    v = [jnp.broadcast_to(jnp.asarray(_value(x), nominal.dtype), (n,)) for x in v]
     return v, angles
 
 
@@ -468,7 +504,7 @@ def _in_mount_frame(mount, v: Float[Array, "n 3"]) -> Float[Array, "n 3"]:
     call."""
     frame = _constant_entries(lambda: mount.frame)
     components = [v[:, i] for i in range(3)]
-    return jnp.stack([_dot([frame[i][j] for i in range(3)], components) for j in range(3)], axis=-1)
+    return jnp.stack([_value(_dot([frame[i][j] for i in range(3)], components)) for j in range(3)], axis=-1)
 
 
 def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple[Array, Array]:

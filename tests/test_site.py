@@ -152,6 +152,33 @@ def test_cholesky_gauss_newton_keeps_the_last_factor(m):
     np.testing.assert_allclose(pivots, np.diag(ref) ** 2 / np.diag(a), rtol=1e-10)
 
 
+def test_entry_algebra_with_symbolic_signs():
+    # _mul and _add keep constant zeros, ones and minus ones out of the arithmetic and a
+    # sign symbolic until an addition takes it; references: NumPy on the same values.
+    x, y = RNG.normal(size=4), RNG.normal(size=4)
+    entries = [0.0, 1.0, -1.0, 2.5, x, y, site._Neg(x), site._Neg(y)]
+
+    def plain(e):
+        return -e.x if isinstance(e, site._Neg) else e
+
+    for a in entries:
+        for b in entries:
+            np.testing.assert_array_equal(site._value(site._mul(a, b)), plain(a) * plain(b))
+            np.testing.assert_array_equal(site._value(site._add(a, b)), plain(a) + plain(b))
+    assert site._mul(-1.0, x).x is x and site._mul(site._Neg(x), -1.0) is x  # no arithmetic
+
+
+def test_axis_forms_of_the_mounts_are_exact():
+    # Rotations about coordinate axes: every entry of alpha, beta, gamma is exactly 0 or
+    # +-1 (sin pi is not exactly 0 in floating point), so the fit skips them.
+    for mount in (px.Turntable("full").mount, px.AltAz(px.terms.tpoint(("IA",))).mount, px.XY("basic").mount):
+        for axis in ("axis1", "axis2"):
+            form = site._axis_form(mount, axis)
+            assert form is not None
+            for m in form:
+                assert set(np.unique(m)) <= {-1.0, 0.0, 1.0}, (type(mount).__name__, axis, m)
+
+
 def test_constant_mount_geometry_is_constant_while_tracing():
     # The structured evaluation skips the zeros and ones of a constant boresight and
     # frame: that needs them as Python floats inside jit, not as traced values.
