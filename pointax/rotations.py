@@ -138,7 +138,7 @@ def enu_to_azel(
     ``v`` need not be normalised (its norm must lie between about 1e-150 and 1e150).
     At the zenith and nadir the azimuth is taken as 0 and its gradient as zero.
     ``atan2``: the arctangent to use; :func:`pointax.trig.atan2` (a vectorised
-    polynomial) for many observations at once in their own compiled call.
+    polynomial) for many observations at once, computed once (a batched fit's site data).
     """
     v = jnp.asarray(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]

@@ -20,8 +20,9 @@ library. :func:`atan2` is described in its docstring. Derivatives are exact (eac
 function has a ``jax.custom_jvp``); arguments other than float64 go to ``jnp``'s own
 functions.
 
-Where pointax uses them: in a batched fit's site data, computed once per observation in
-their own compiled call: the encoder angles' sines and cosines (:mod:`pointax.site`)
+Where pointax uses them: in a batched fit's site data, computed once per observation
+before the step loop (which takes them as arrays) or, for one-step fits, in a compiled
+call of their own: the encoder angles' sines and cosines (:mod:`pointax.site`)
 and the observed angles of the TPOINT residual form
 (:meth:`pointax.SphericalMount.sky_point_of`). Not inside the compiled fit: there XLA
 copies a cheap producer into each of its consumers, and the polynomials of the
