@@ -1,11 +1,11 @@
 """Compiled programs kept on disk between runs (JAX's persistent compilation cache).
 
 A batched refit compiles its fixed-step fit once per model structure and chunk shape:
-about 1.15-1.3 s of XLA's time for the turntable model on a 2-core machine at a quiet
-moment, on top of ~0.5 s of tracing (``benchmarks/batch_fit_notes.md``). With the cache
-on, the next process that fits the same structure loads the compiled program instead
-(4,096 turntable sites in a fresh process, ``benchmarks/batch_fit.py``, at quiet
-moments: 2.8-3.4 s of compilation cold, 1.7-2.5 s with the cache warm). The ``pointax``
+about 1 s of XLA's time for the turntable model on a 2-core machine at a quiet moment,
+on top of ~0.5 s of tracing (``benchmarks/batch_fit_notes.md``). With the cache on, the
+next process that fits the same structure loads the compiled program instead (4,096
+turntable sites in a fresh process, ``benchmarks/batch_fit.py``: 2.2-2.4 s of
+compilation cold, 1.4 s with the cache warm). The ``pointax``
 command turns it on for every subcommand (``$POINTAX_JAX_CACHE``); call
 :func:`enable_compilation_cache` in your own scripts, before the first computation (JAX
 sets its cache up at the first compilation of a process).
