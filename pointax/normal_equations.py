@@ -27,7 +27,19 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-__all__ = ["NormalCholesky", "CholeskyGaussNewton", "factor_entries", "columns", "inner", "normal_matrix", "cholesky", "solve", "inverse", "MAX_UNROLLED"]
+__all__ = [
+    "NormalCholesky",
+    "CholeskyGaussNewton",
+    "CholeskyNewtonDescent",
+    "factor_entries",
+    "columns",
+    "inner",
+    "normal_matrix",
+    "cholesky",
+    "solve",
+    "inverse",
+    "MAX_UNROLLED",
+]
 
 MAX_UNROLLED = 16
 """Systems with more unknowns than this use ``jnp.linalg`` (the unrolled code grows as
