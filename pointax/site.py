@@ -585,7 +585,7 @@ def residual_function(params: Sequence[ParameterInfo]):
             parts.append(extra)
         if not parts:
             return out, (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
-        return out, (sum(p[0] for p in parts[1:]) + parts[0][0], sum(p[1] for p in parts[1:]) + parts[0][1])
+        return out, tuple(sum((p[i] for p in parts[1:]), parts[0][i]) for i in range(2))
 
     fn.defjvp(fn_jvp, symbolic_zeros=True)
 
