@@ -29,7 +29,11 @@ from jaxtyping import Array, ArrayLike, Float
 
 from . import normal_equations
 from ._x64 import float64
-from .fit import FitResult, _check_convention, _fit, check_options, least_squares_result
+from .fitting.core import result_from_covariance
+from .fitting.options import FitOptions
+from .fitting.residuals import check_convention
+from .fitting.result import FitResult
+from .fitting.solo import fit_model, options_from
 from .model import Model
 from .normal_equations import CholeskyGaussNewton
 from .observations import Observations
@@ -217,14 +221,14 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
         f_change = _along(cols, update)
     else:
         f_change = step_change
-    fitted = model._replace(params, [y[k] for k in range(m)])
+    fitted = model.replace_parameters(params, [y[k] for k in range(m)])
     # Per residual component (a concatenation would copy every column once more).
     small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y))
     for change, now in zip(f_change, rw):
         small = small & jnp.all(jnp.abs(change) <= atol + rtol * jnp.abs(now))
     suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
     unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
-    result = least_squares_result(
+    result = result_from_covariance(
         fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps, small, "gauss-newton"
     )
     return result, suspect
@@ -288,9 +292,9 @@ def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
 
 
 @eqx.filter_jit
-def _fit_sites(model, values, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject):
+def _fit_sites(model, values, obs, options: FitOptions):
     def one(y, site_obs):
-        return _fit(model.with_values(y, "free"), site_obs, solver, max_steps, rtol, atol, "", loss, loss_scale, reject)
+        return fit_model(model.with_values(y, "free"), site_obs, options)
 
     return jax.vmap(one)(values, obs)
 
@@ -355,6 +359,7 @@ def fit_batch(
     reject: float = 3.0,
     chunk_size: int | None = 1024,
     progress: Callable[[int, int], None] | None = None,
+    options: FitOptions | None = None,
 ) -> FitResult:
     """Fit ``model`` to every site of a batch, each with its own parameters.
 
@@ -387,6 +392,8 @@ def fit_batch(
             serves them all. A batch smaller than a chunk is padded to the next power
             of two: batches of 100 and of 101 sites share one compilation.
         progress: called as ``progress(sites_done, sites_total)`` after each chunk.
+        options: ``solver`` to ``reject`` as one :class:`pointax.FitOptions` (then
+            leave those keywords at their defaults).
 
     Returns:
         A :class:`pointax.FitResult` whose arrays have a leading site axis; per site:
@@ -394,18 +401,21 @@ def fit_batch(
         :func:`site_result`, its report and ``message``. ``solver`` names the full loop's
         solver.
     """
-    check_options(solver, loss, loss_scale, reject)
+    options = options_from(
+        options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
+    )
+    solver, rtol, atol = options.solver, options.rtol, options.atol
     check_batch(observations)
     if steps is None:
         steps = 1 if is_affine(model) else DEFAULT_STEPS
     if int(steps) < 0:
         raise ValueError(f"steps must be >= 0, got {steps!r}")
-    _check_convention(model, observations)
+    check_convention(model, observations)
     n_sites = observations.encoder.shape[0]
     values = start_values(model, n_sites, values)
     # Parameters as float64 arrays (host-side: no small computations to compile).
-    model = model._replace(model.parameters, [_host(getattr(model.terms[p.term], p.field)) for p in model.parameters])
-    fast = int(steps) > 0 and loss == "linear"
+    model = model.replace_parameters(model.parameters, [_host(getattr(model.terms[p.term], p.field)) for p in model.parameters])
+    fast = int(steps) > 0 and not options.robust
     site_obs = _batched(
         np.asarray(observations.encoder, np.float64),
         np.asarray(observations.target, np.float64),
@@ -436,7 +446,7 @@ def fit_batch(
                     model,
                     _pad_sites(np.asarray(y0)[again], pad),
                     _pad_sites(_take_sites(obs, again), pad),
-                    solver, max_steps, rtol, atol, loss, loss_scale, reject,
+                    options,
                 )
                 # (the solver's name is static: one name for the batch, set at the end)
                 redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps), solver=out.solver)
@@ -447,7 +457,7 @@ def fit_batch(
     else:
         for start, stop in chunks:
             y0, obs = chunk_inputs(start, stop)
-            out = _fit_sites(model, y0, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
+            out = _fit_sites(model, y0, obs, options)
             results.append(_first_sites(out, stop - start))
             if progress is not None:
                 progress(stop, n_sites)

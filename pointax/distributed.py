@@ -35,7 +35,8 @@ from jaxtyping import ArrayLike, Float
 
 from ._x64 import float64
 from .batch import check_batch, fit_batch, start_values
-from .fit import FitResult, check_options
+from .fitting.options import FitOptions
+from .fitting.result import FitResult
 from .model import Model
 from .observations import Observations
 
@@ -121,9 +122,9 @@ def fit_batch_distributed(
         inspect.signature(fit_batch).bind(model, observations, values=values, **options)
     except TypeError as err:
         raise TypeError(f"fit_batch_distributed: {err}") from None
-    check_options(
-        options.get("solver", "lm"), options.get("loss", "linear"), options.get("loss_scale"), options.get("reject", 3.0)
-    )
+    names = ("solver", "max_steps", "rtol", "atol", "loss", "loss_scale", "reject")
+    if options.get("options") is None:
+        FitOptions(**{k: options[k] for k in names if k in options})  # checked before any chunk is sent
     check_batch(observations)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
         raise ValueError(f"chunk_size must be a positive number of sites, got {chunk_size!r}")

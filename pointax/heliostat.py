@@ -20,7 +20,9 @@ from typing import Any
 import numpy as np
 
 from ._x64 import float64
-from .fit import FitResult, fit, residuals
+from .fitting.residuals import residuals
+from .fitting.result import FitResult
+from .fitting.solo import fit
 from .io.paint import PaintRun, read_paint
 from .model import Model
 from .mounts import HeliostatMount

@@ -39,7 +39,9 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from . import normal_equations as ne
 from ._x64 import float64
 from .batch import _batched, check_batch, fit_batch, site_statuses, start_values
-from .fit import FitResult, _check_convention, least_squares_result
+from .fitting.core import result_from_covariance
+from .fitting.residuals import check_convention
+from .fitting.result import FitResult
 from .model import Model
 from .observations import Observations
 from .site import SiteData, residual_columns, site_data, site_residuals
@@ -201,7 +203,7 @@ def _joint_residual_function(own_params, shared_params):
     m = len(own_params)
 
     def site_model(model, y_site, p):
-        return model._replace(params, [y_site[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
+        return model.replace_parameters(params, [y_site[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
 
     def residual(y, p, model, data, active):
         rx, ry = jax.vmap(lambda ys, d: site_residuals(site_model(model, ys, p), d))(y, data)
@@ -305,7 +307,7 @@ def fit_shared(
     if not shared:
         raise ValueError("no shared parameter given: use pointax.fit_batch")
     check_batch(observations)
-    _check_convention(model, observations)
+    check_convention(model, observations)
     model = model.with_values(model.values())
     alone = model.fix(*shared)
     own_params = alone.free_parameters
@@ -358,12 +360,12 @@ def _site_results(model, own_params, shared_params, y, p, site_cov, data: SiteDa
     m = len(own_params)
 
     def one(ys, cov, d):
-        fitted = model._replace(params, [ys[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
+        fitted = model.replace_parameters(params, [ys[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
         fitted = fitted.fix(*(q.name for q in shared_params))
         r = site_residuals(fitted, d, weighted=False)
         rw = jnp.stack([part * d.sqrt_weight for part in r], axis=-1)
         # cov is already scaled by the Sky RMS of all sites together.
-        return least_squares_result(
+        return result_from_covariance(
             fitted, ys, cov, jnp.stack(r, axis=-1), rw, d.used, iterations, converged, "gauss-newton", scale=1.0
         )
 

@@ -550,7 +550,7 @@ def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInf
         value = getattr(model.terms[p.term], p.field)
 
         def one(x, p=p):
-            return site_residuals(model._replace([p], [x]), data)
+            return site_residuals(model.replace_parameters([p], [x]), data)
 
         cols.append(jax.jvp(one, (value,), (jnp.ones_like(value),))[1])
     return cols
@@ -567,20 +567,20 @@ def residual_function(params: Sequence[ParameterInfo]):
 
     @jax.custom_jvp
     def fn(y, model, data):
-        return site_residuals(model._replace(params, _values(y, n)), data)
+        return site_residuals(model.replace_parameters(params, _values(y, n)), data)
 
     def fn_jvp(primals, tangents):
         y, model, data = primals
         ty, t_model, t_data = tangents
         ys = _values(y, n)
-        fitted = model._replace(params, ys)
+        fitted = model.replace_parameters(params, ys)
         out = site_residuals(fitted, data)
         # Sums started from their first term, not from zeros: a linearisation stores every
         # constant it meets as an array (see _scaled).
         parts = []
         if not isinstance(ty, SymbolicZero):
             parts += [(_scaled(ty[k], cx), _scaled(ty[k], cy)) for k, (cx, cy) in enumerate(residual_columns(fitted, data, params))]
-        extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m._replace(params, ys), d))
+        extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m.replace_parameters(params, ys), d))
         if extra is not None:
             parts.append(extra)
         if not parts:

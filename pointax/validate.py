@@ -9,7 +9,10 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._x64 import float64
-from .fit import FitResult, _fit, check_options, prepare, residuals
+from .fitting.options import FitOptions
+from .fitting.residuals import residuals
+from .fitting.result import FitResult
+from .fitting.solo import fit_model, options_from, prepare
 from .model import Model
 from .observations import Observations
 from .rotations import offset_angle
@@ -43,14 +46,14 @@ class LeaveOneOut(eqx.Module):
 
 
 @eqx.filter_jit
-def _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject):
+def _leave_one_out(model, obs, options: FitOptions):
     n = obs.weight.shape[0]
     masks = 1.0 - jnp.eye(n, dtype=obs.weight.dtype)
     taking_part = obs.weight > 0
 
     def one_fold(mask):
         fold_obs = eqx.tree_at(lambda o: o.weight, obs, obs.weight * mask)
-        return _fit(model, fold_obs, solver, max_steps, rtol, atol, "", loss, loss_scale, reject)
+        return fit_model(model, fold_obs, options)
 
     # lax.map rather than vmap: the folds run one after another in one compiled loop.
     # Compiling a single fit's body is 3x faster than compiling it batched (7 s
@@ -78,6 +81,7 @@ def leave_one_out(
     loss: str = "linear",
     loss_scale: float | None = None,
     reject: float = 3.0,
+    options: FitOptions | None = None,
 ) -> LeaveOneOut:
     """Fit ``model`` once per observation with that observation left out, and predict it.
 
@@ -92,10 +96,12 @@ def leave_one_out(
     Returns:
         :class:`LeaveOneOut` with each observation's out-of-sample error.
     """
-    check_options(solver, loss, loss_scale, reject)
+    options = options_from(
+        options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
+    )
     model, obs = prepare(model, data, weights, fixed)
     if int(np.sum(np.asarray(obs.weight) > 0)) < 2:
         raise ValueError("leave-one-out needs at least two observations with positive weight")
-    offsets, folds = _leave_one_out(model, obs, solver, max_steps, rtol, atol, loss, loss_scale, reject)
+    offsets, folds = _leave_one_out(model, obs, options)
     errors = offset_angle(offsets)
     return LeaveOneOut(offsets=offsets, errors=errors, converged=folds.converged, folds=folds)

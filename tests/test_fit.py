@@ -192,13 +192,14 @@ def test_errors_are_clear(simulated):
 
 def test_fit_is_traceable_under_vmap(simulated):
     """The core fit is pure JAX: vmap over two data sets gives the two solo fits."""
-    from pointax.fit import _fit
+    from pointax.fitting import FitOptions, fit_model
 
     model = px.AltAz(px.terms.tpoint(list(TRUE)))
     model = model.with_values(model.values())
     other = px.simulate(_truth(), np.asarray(simulated.encoder), noise=1.0 * ARCSEC, seed=4)
     stack = jax.tree.map(lambda a, b: jnp.stack([jnp.asarray(a), jnp.asarray(b)]), simulated, other)
-    batched = jax.vmap(lambda o: _fit(model, o, "gauss-newton", 50, 1e-10, 1e-13))(stack)
+    options = FitOptions("gauss-newton", 50, 1e-10, 1e-13)
+    batched = jax.vmap(lambda o: fit_model(model, o, options))(stack)
     for k, obs in enumerate([simulated, other]):
         solo = px.fit(model, obs, solver="gauss-newton", max_steps=50)
         np.testing.assert_allclose(np.asarray(batched.values[k]), np.asarray(solo.values), atol=1e-12)

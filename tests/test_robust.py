@@ -17,7 +17,7 @@ import pytest
 import scipy.optimize
 
 import pointax as px
-from pointax.fit import LOSSES, _least_squares, robust_sigma
+from pointax.fitting import LOSSES, FitOptions, free_mask, least_squares, robust_sigma
 from pointax.simulate import encoder_grid
 
 ARCSEC = math.pi / 648000
@@ -184,7 +184,7 @@ def test_losses_are_scipys(loss):
 
 
 def test_robust_stage_minimises_sum_rho(dirty, reference):
-    """The robust solve (pointax.fit._least_squares with a loss and a given scale c)
+    """The robust solve (pointax.fitting.least_squares with a loss and a given scale c)
     returns residuals whose squares sum to sum c^2 rho(|r|^2 / c^2), and its solution
     minimises that cost: scipy's LM on the per-observation residuals
     sqrt(c^2 rho(|r_i|^2 / c^2)) (a different but equivalent formulation) finds the
@@ -195,7 +195,8 @@ def test_robust_stage_minimises_sum_rho(dirty, reference):
     obs = dirty
     c = 3.0  # arcsec
     rho = LOSSES["cauchy"]
-    sol, fn = _least_squares(model, obs, jnp.ones(len(obs)), "lm", 256, 1e-10, 1e-13, rho, (c * ARCSEC) ** 2)
+    options = FitOptions("lm", 256, 1e-10, 1e-13)
+    sol, fn = least_squares(model, free_mask(model), obs, jnp.ones(len(obs)), options, rho, (c * ARCSEC) ** 2)
     y = np.asarray(sol.value) / ARCSEC
     residual = jax.jit(lambda y: px.residuals(model.with_values(y * ARCSEC), obs) / ARCSEC)
 

@@ -26,10 +26,12 @@ import dataclasses
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["Term", "SkyPoint", "param", "param_fields", "param_unit", "angle_pair"]
+__all__ = ["Term", "SkyPoint", "param", "param_fields", "param_unit", "angle_pair", "check_linear_claim"]
 
 
 class SkyPoint(NamedTuple):
@@ -97,8 +99,8 @@ class Term(eqx.Module):
     as every TPOINT linear-form term) may say so with ``linear_sky_offset = True``:
     where the offset is evaluated at data-only angles (fits with
     ``residual_form="tpoint"``), batched fits then compute ``f`` once per observation
-    instead of at every step. A wrong claim gives wrong fits, so leave it False unless
-    it holds exactly.
+    instead of at every step. A model refuses a term whose claim does not hold
+    (:func:`check_linear_claim`), so leave it False unless it holds exactly.
     """
 
     linear_sky_offset: ClassVar[bool] = False
@@ -137,3 +139,57 @@ class Term(eqx.Module):
         define :meth:`sky_offset` through it, to use them; by default it calls
         :meth:`sky_offset` on the point's angles."""
         return self.sky_offset(jnp.stack([point.az, point.el]))
+
+
+_PROBE_POINTS = np.array([[0.3, 0.4], [2.1, 1.1], [-1.7, 0.2], [4.0, -0.6], [1.0, 1.5]])
+_CLAIMS: dict = {}
+
+
+def check_linear_claim(term: Term) -> None:
+    """Raise ValueError, naming the term, when ``term`` says ``linear_sky_offset`` but
+    its sky offset is not linear in its parameters (batched fits would be silently
+    wrong). Checked numerically at a few sky points, once per term class and
+    configuration: the offset must vanish with the parameters, double with them, and be
+    the sum of each parameter's own contribution, to 1e-9 of its size."""
+    if not term.linear_sky_offset:
+        return
+    key = (type(term), jax.tree.structure(term))
+    if key not in _CLAIMS:
+        _CLAIMS[key] = _linearity_error(term)
+    if _CLAIMS[key]:
+        raise ValueError(f"term {term.name} declares linear_sky_offset = True, but {_CLAIMS[key]}; set it False")
+
+
+def _linearity_error(term: Term) -> str:
+    fields = [f.name for f in param_fields(term)]
+    if not fields:
+        return ""
+    theta = np.array([0.7e-4, -1.3e-4, 2.2e-4, -0.4e-4, 1.7e-4, 0.9e-4] * (1 + len(fields) // 6))[: len(fields)]
+
+    def offsets(values, point):
+        t = eqx.tree_at(lambda t: [getattr(t, f) for f in fields], term, list(values))
+        return t.sky_offset_at(SkyPoint.at(point))
+
+    def probe(points):
+        cases = [theta, 2 * theta, 0 * theta] + [np.eye(len(fields))[k] * 1e-4 for k in range(len(fields))]
+        return [jax.vmap(lambda p, v=jnp.asarray(v): offsets(v, p))(points) for v in cases]
+
+    # Compiled and called on NumPy data: concrete values even while a fit is traced.
+    with jax.enable_x64(True):
+        try:
+            got = jax.jit(probe).lower(_PROBE_POINTS).compile()(_PROBE_POINTS)
+        except Exception:  # no sky offset to check, or not evaluable here: nothing to refuse
+            return ""
+    if any(g is None for g in got):
+        return ""
+    at, doubled, zero, *units = (np.asarray(g, np.float64) for g in got)
+    size = max(float(np.max(np.abs(at))), 1e-300)
+    summed = sum(u * (v / 1e-4) for u, v in zip(units, theta))
+    for what, error in (
+        ("it is not zero when its parameters are", zero),
+        ("it does not double when its parameters do", doubled - 2 * at),
+        ("it is not the sum of each parameter's own offset", at - summed),
+    ):
+        if np.max(np.abs(error)) > 1e-9 * size:
+            return what
+    return ""

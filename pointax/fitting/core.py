@@ -1,0 +1,267 @@
+"""The fit itself, pure JAX: least squares or robust, then TPOINT's statistics.
+
+:func:`fit_core` fits the parameters of a model that a boolean mask ``free`` selects;
+the others stay at their values. The mask is an array, not part of the program's
+structure, so one compiled fit serves every choice of free parameters (and, with
+:mod:`pointax.fitting.structure`, every subset of the terms it was compiled for).
+Fixed parameters enter the solver as pinned unknowns: their residual columns are zero
+and a pseudo-residual ``y - y0`` per fixed parameter keeps the linear systems
+well-posed without moving them.
+
+Robust fits (``loss`` 'cauchy', 'huber' or 'soft_l1') minimise ``sum_i rho(|r_i|^2)``
+with the scale chosen from the data, flag observations whose residual exceeds
+``reject`` robust standard deviations as outliers, and finish with a plain
+least-squares fit of the rest, so values, sigmas and statistics keep TPOINT's meaning.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Bool, Float
+
+from ..model import Model
+from ..observations import Observations
+from .options import SOLVER_NAMES, FitOptions
+from .residuals import residuals
+from .result import FitResult
+from .statistics import normalised_weights, robust_sigma, statistics, svd_unit_covariance
+
+__all__ = ["SOLVERS", "LOSSES", "fit_core", "least_squares", "restrict", "free_mask", "result_from_covariance"]
+
+SOLVERS = {
+    "lm": (SOLVER_NAMES["lm"], optx.LevenbergMarquardt),
+    "gauss-newton": (SOLVER_NAMES["gauss-newton"], optx.GaussNewton),
+    "dogleg": (SOLVER_NAMES["dogleg"], optx.Dogleg),
+}
+"""Solver name -> (display name, optimistix class)."""
+
+
+def _rho_cauchy(z, c2):
+    return c2 * jnp.log1p(z / c2)
+
+
+def _rho_huber(z, c2):
+    c = jnp.sqrt(c2)
+    return jnp.where(z <= c2, z, 2 * c * jnp.sqrt(jnp.maximum(z, c2)) - c2)
+
+
+def _rho_soft_l1(z, c2):
+    return 2 * c2 * (jnp.sqrt(1 + z / c2) - 1)
+
+
+LOSSES = {"linear": None, "huber": _rho_huber, "soft_l1": _rho_soft_l1, "cauchy": _rho_cauchy}
+"""Loss name -> ``rho(z, c^2)`` of the squared residual norm ``z`` (as scipy's
+``least_squares`` defines them, scaled by ``c^2``); 'linear' is plain least squares."""
+
+
+def free_mask(model: Model) -> np.ndarray:
+    """``(M,)`` which of the model's parameters a fit adjusts (not in ``model.fixed``)."""
+    return np.array([p.name not in model.fixed for p in model.parameters], bool)
+
+
+def least_squares(model: Model, free: Bool[Array, " m"], obs: Observations, weight, options: FitOptions, rho=None, c2=None):
+    """One optimistix solve of the ``free`` parameters, the others held at their values.
+
+    ``rho`` (with the squared scale ``c2``) makes it a robust fit by rescaling each
+    observation's residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to
+    ``sum rho``. Returns ``(solution, scaled)``: ``solution.value`` holds every
+    parameter (``(M,)``, in model order) and ``scaled(y, None)`` the ``(n, 2)``
+    residuals the loss sees at ``y`` (times the square roots of ``weight``, rescaled by
+    ``rho`` if given), the free entries of ``y`` only taking effect.
+    """
+    y0 = model.values("all")
+    sqrt_w = jnp.sqrt(weight)[:, None]
+
+    def scaled(y, _=None):
+        r = residuals(model.with_values(jnp.where(free, y, y0)), obs) * sqrt_w
+        if rho is None:
+            return r
+        z = jnp.sum(r**2, axis=-1)
+        positive = z > 0
+        safe = jnp.where(positive, z, 1.0)
+        return r * jnp.where(positive, jnp.sqrt(rho(safe, c2) / safe), 1.0)[:, None]
+
+    def fn(y, _):
+        return scaled(y), jnp.where(free, 0.0, y - y0)
+
+    optimiser = SOLVERS[options.solver][1](rtol=options.rtol, atol=options.atol)
+    sol = optx.least_squares(fn, optimiser, y0, max_steps=options.max_steps, throw=False)
+    return sol, scaled
+
+
+def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: FitOptions) -> FitResult:
+    """Fit the ``free`` parameters of ``model`` (pure JAX: jit, vmap, lax.map).
+
+    Returns a :class:`FitResult` over *every* parameter of the model (``names`` all of
+    them): fixed ones keep their values, with sigma 0 and no correlation meaning;
+    :func:`restrict` turns it into the result for the free ones.
+    """
+    free = jnp.asarray(free, bool)
+    given = obs.weight > 0
+    weight = normalised_weights(obs.weight, given)
+    rho = LOSSES[options.loss]
+    iterations = jnp.asarray(0)
+    robust_ok = jnp.asarray(True)
+    outliers = jnp.zeros(given.shape, bool)
+    scale = jnp.asarray(0.0)
+    if rho is not None:
+        # Residuals are judged weighted (sqrt(w) r, the quantity the loss sees), so a
+        # down-weighted observation is not rejected for being imprecise.
+        sqrt_w = jnp.sqrt(weight)[:, None]
+
+        def weighted_sigma(m):
+            return robust_sigma(residuals(m, obs) * sqrt_w, given)
+
+        # Two passes when the scale is automatic: the first starts from the scale of
+        # the starting model's residuals (may be large), the second from the fit's.
+        auto = options.loss_scale is None
+        scale = weighted_sigma(model)
+        for _ in range(2 if auto else 1):
+            # Soft margin c: two robust sigmas unless given.
+            c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(options.loss_scale) ** 2, 1e-30)
+            sol, _ = least_squares(model, free, obs, weight, options, rho, c2)
+            model = model.with_values(jnp.where(free, sol.value, model.values("all")))
+            iterations = iterations + sol.stats["num_steps"]
+            robust_ok = robust_ok & (sol.result == optx.RESULTS.successful)
+            scale = weighted_sigma(model)
+        rw = residuals(model, obs) * sqrt_w
+        outliers = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * scale)
+    used = given & ~outliers
+    weight = normalised_weights(obs.weight, used)
+    sol, weighted = least_squares(model, free, obs, weight, options)
+    y = jnp.where(free, sol.value, model.values("all"))
+    fitted = model.with_values(y)
+    r = residuals(fitted, obs)  # outliers keep their residuals; statistics skip them
+    rw = r * jnp.sqrt(weight)[:, None]
+    jac = jax.jacfwd(lambda y: weighted(y).reshape(-1))(y)
+    unit_cov, degenerate = svd_unit_covariance(jac, free)
+    stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
+    finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
+    converged = (sol.result == optx.RESULTS.successful) & finite
+    params = model.parameters
+    return FitResult(
+        model=fitted,
+        values=y,
+        sigmas=stats.sigmas,
+        covariance=stats.covariance,
+        correlation=stats.correlation,
+        residuals=r,
+        used=used,
+        n_obs=stats.n_obs,
+        sky_rms=stats.sky_rms,
+        popn_sd=stats.popn_sd,
+        iterations=iterations + sol.stats["num_steps"],
+        converged=converged,
+        result=sol.result,
+        degenerate=degenerate,
+        outliers=outliers,
+        robust_scale=scale,
+        robust_converged=robust_ok,
+        names=tuple(p.name for p in params),
+        units=tuple(p.unit for p in params),
+        solver=options.solver,
+        loss=options.loss,
+        reject=options.reject if rho is not None else 0.0,
+    )
+
+
+def restrict(full: FitResult, index, model: Model, caption: str = "", numpy=None) -> FitResult:
+    """The result of fitting ``model`` from :func:`fit_core`'s result ``full`` over a
+    model that holds ``model``'s terms (and maybe more): ``index[k]`` is the position in
+    ``full`` of ``model``'s k-th free parameter.
+
+    Works on traced arrays (inside ``jit``, ``vmap``) and on the host: with
+    ``numpy=True`` every array is taken to NumPy first and indexed there, so that no
+    small computation is compiled for a new shape.
+    """
+    params = model.free_parameters
+    index = np.asarray(index, int)
+    if numpy:
+        full = jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, full)
+    pick = lambda x: x[..., index]  # noqa: E731
+    pick2 = lambda x: x[..., index[:, None], index[None, :]]  # noqa: E731
+    values = pick(full.values)
+    fitted = model.replace_parameters(params, [values[..., k] for k in range(len(params))])
+    out = FitResult(
+        model=fitted,
+        values=values,
+        sigmas=pick(full.sigmas),
+        covariance=pick2(full.covariance),
+        correlation=pick2(full.correlation),
+        residuals=full.residuals,
+        used=full.used,
+        n_obs=full.n_obs,
+        sky_rms=full.sky_rms,
+        popn_sd=full.popn_sd,
+        iterations=full.iterations,
+        converged=full.converged,
+        result=full.result,
+        degenerate=pick(full.degenerate),
+        outliers=full.outliers,
+        robust_scale=full.robust_scale,
+        robust_converged=full.robust_converged,
+        names=tuple(p.name for p in params),
+        units=tuple(p.unit for p in params),
+        solver=full.solver,
+        caption=caption,
+        loss=full.loss,
+        reject=full.reject,
+    )
+    if numpy:
+        out = jax.device_put(out)
+    return out
+
+
+def result_from_covariance(
+    fitted: Model,
+    values: Float[Array, " m"],
+    unit_covariance: Float[Array, "m m"],
+    residuals: Float[Array, "n 2"],
+    weighted: Float[Array, "n 2"],
+    used: Bool[Array, " n"],
+    iterations,
+    converged: Bool[Array, ""],
+    solver: str,
+    scale: Float[Array, ""] | None = None,
+) -> FitResult:
+    """A least-squares :class:`FitResult` with TPOINT's statistics from ``(J^T J)^-1``
+    (the batched fast path's Cholesky factor, the shared-parameter fit's Schur
+    complement) rather than from :func:`fit_core`'s SVD.
+
+    Args:
+        fitted: the model with the fitted values; ``values`` its free parameters.
+        unit_covariance: ``(J^T J)^-1`` of the weighted residuals.
+        residuals, weighted: ``(n, 2)`` residuals, plain and times the square roots of
+            the normalised weights (0 for unused observations).
+        scale: the standard deviation the covariance is scaled by (default: this fit's
+            Sky RMS, as TPOINT's sigmas).
+    """
+    params = fitted.free_parameters
+    m = len(params)
+    stats = statistics(weighted, used, m, unit_covariance, None, scale)
+    ok = converged & jnp.all(jnp.isfinite(values)) & jnp.isfinite(stats.sky_rms)
+    return FitResult(
+        model=fitted,
+        values=values,
+        sigmas=stats.sigmas,
+        covariance=stats.covariance,
+        correlation=stats.correlation,
+        residuals=residuals,
+        used=used,
+        n_obs=stats.n_obs,
+        sky_rms=stats.sky_rms,
+        popn_sd=stats.popn_sd,
+        iterations=jnp.asarray(iterations),
+        converged=ok,
+        result=optx.RESULTS.where(ok, optx.RESULTS.successful, optx.RESULTS.nonlinear_max_steps_reached),
+        degenerate=jnp.zeros((m,), bool),
+        outliers=jnp.zeros(used.shape, bool),
+        robust_scale=jnp.asarray(0.0),
+        robust_converged=jnp.asarray(True),
+        names=tuple(p.name for p in params),
+        units=tuple(p.unit for p in params),
+        solver=solver,
+    )

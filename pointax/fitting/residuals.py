@@ -1,0 +1,82 @@
+"""The residuals a fit minimises: observed minus model on the sky, in either residual form.
+
+Written per observation on :meth:`pointax.Model.mount_direction`, the plain forward
+model; the batched fast path (:mod:`pointax.site`) evaluates the same residuals over a
+whole site at once and is tested against these.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ..model import Model
+from ..observations import Observations
+from ..rotations import tangent_offset, wrap_pi
+
+__all__ = ["residuals", "as_observations", "check_convention"]
+
+
+def as_observations(data) -> Observations:
+    """Accept :class:`Observations` or anything with an ``observations`` attribute."""
+    if isinstance(data, Observations):
+        return data
+    obs = getattr(data, "observations", None)
+    if isinstance(obs, Observations):
+        return obs
+    raise TypeError(
+        f"expected pointax.Observations or a run with .observations (e.g. from pointax.io.read_tpoint), got {type(data).__name__}"
+    )
+
+
+def check_convention(model: Model, obs: Observations) -> None:
+    """Raise ValueError when the observations' encoder convention is not the mount's."""
+    mine, theirs = model.mount.convention, obs.convention
+    if mine is not None and theirs is not None and mine != theirs:
+        raise ValueError(
+            f"the observations' encoder angles follow the {theirs!r} convention but the model's "
+            f"mount expects {mine!r}; build the model with the data's convention "
+            f"(e.g. pointax.AltAz(terms, azimuth={theirs!r}))"
+        )
+
+
+def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
+    """Observed minus model on the sky, ``(n, 2)`` (cross-elevation, elevation) radians,
+    as the model's :attr:`~pointax.Model.residual_form` defines them.
+
+    Pure JAX; observations with weight 0 give 0 (and may hold NaN).
+    """
+    if model.residual_form == "tpoint":
+        return _tpoint_residuals(model, obs)
+    used = obs.weight > 0
+    encoder = jnp.where(used[:, None], obs.encoder, 0.0)
+    # Targets into the mount frame (F is orthogonal, so its inverse is its transpose).
+    target = jnp.asarray(obs.target) @ model.mount.frame
+    at_rest = model.mount.boresight
+    target = jnp.where(used[:, None], target, at_rest)
+    predicted = jax.vmap(model.mount_direction)(encoder)
+    predicted = jnp.where(used[:, None], predicted, at_rest)
+    r = -tangent_offset(predicted, target)
+    return jnp.where(used[:, None], r, 0.0)
+
+
+def _tpoint_residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
+    """TPOINT's residuals ``(dA cos E, dE)``: ``d`` = observed angles minus the chain's
+    angles minus the sky offsets evaluated at the observed angles (see
+    :class:`pointax.Model`)."""
+    mount = model.mount
+    used = obs.weight > 0
+    encoder, target = obs.filled(used)
+    target = target @ mount.frame
+
+    def one(reading, direction):
+        d, angles = model.chain_direction(reading)
+        chain = mount.angles_of(d, near=angles)
+        observed = mount.angles_of(direction, near=mount.axis_angles(reading))
+        offset = model.sky_offset(observed)
+        diff = observed - chain if offset is None else observed - chain - offset
+        return jnp.stack([wrap_pi(diff[0]) * jnp.cos(observed[1]), diff[1]])
+
+    r = jax.vmap(one)(encoder, target)
+    return jnp.where(used[:, None], r, 0.0)

@@ -1,0 +1,249 @@
+"""The outcome of a fit: values, sigmas, TPOINT's statistics, report and JSON summary."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Bool, Float, Int
+
+from ..model import Model
+from ..units import ARCSEC, UNITS
+from .options import SOLVER_NAMES
+
+__all__ = ["FitResult", "CORRELATION_WARNING"]
+
+CORRELATION_WARNING = 0.95
+"""Reports warn about parameter pairs whose |correlation| exceeds this."""
+
+
+class FitResult(eqx.Module):
+    """The outcome of :func:`fit` (a pytree: batched fits stack along a leading axis).
+
+    Values and sigmas are in internal units (radians for angles); :meth:`table`,
+    :meth:`report` and :meth:`to_dict` convert to each parameter's display unit.
+
+    Attributes:
+        model: the model with fitted values.
+        names: names of the fitted (free) parameters, in order.
+        units: their display units.
+        values: ``(M,)`` fitted values.
+        sigmas: ``(M,)`` standard errors (TPOINT's definition); ``inf`` for a parameter
+            the data cannot determine (see ``degenerate``).
+        covariance: ``(M, M)`` covariance matrix.
+        correlation: ``(M, M)`` correlation matrix.
+        residuals: ``(N, 2)`` observed minus model, (cross-elevation, elevation) radians,
+            zero for ignored observations.
+        used: ``(N,)`` which observations were used (weight > 0).
+        n_obs: number of observations used.
+        sky_rms, popn_sd: TPOINT's Sky RMS and population standard deviation, radians.
+        iterations: solver steps taken.
+        converged: whether the solver met its tolerances with finite residuals.
+        result: optimistix's result code.
+        degenerate: ``(M,)`` parameters lying in a (near-)null direction of the
+            Jacobian: the data cannot separate them from the others flagged.
+        outliers: ``(N,)`` observations a robust fit rejected (never for loss 'linear').
+        robust_scale: robust per-axis standard deviation (radians) of the weighted
+            residuals ``sqrt(w) r`` (weights normalised to mean 1) that outliers were
+            judged by (0 for loss 'linear').
+        robust_converged: whether the robust passes that chose the outliers met their
+            tolerances (always True for loss 'linear'). ``converged`` is the final
+            least-squares stage's; a robust pass that stopped at ``max_steps`` is
+            reported by :meth:`warnings`, since the outlier choice may then be off.
+        solver: solver name.
+        loss: loss name (:data:`LOSSES`).
+    """
+
+    model: Model
+    values: Float[Array, " m"]
+    sigmas: Float[Array, " m"]
+    covariance: Float[Array, "m m"]
+    correlation: Float[Array, "m m"]
+    residuals: Float[Array, "n 2"]
+    used: Bool[Array, " n"]
+    n_obs: Int[Array, ""]
+    sky_rms: Float[Array, ""]
+    popn_sd: Float[Array, ""]
+    iterations: Int[Array, ""]
+    converged: Bool[Array, ""]
+    result: optx.RESULTS
+    degenerate: Bool[Array, " m"]
+    outliers: Bool[Array, " n"]
+    robust_scale: Float[Array, ""]
+    robust_converged: Bool[Array, ""]
+    names: tuple[str, ...] = eqx.field(static=True)
+    units: tuple[str, ...] = eqx.field(static=True)
+    solver: str = eqx.field(static=True)
+    caption: str = eqx.field(static=True, default="")
+    loss: str = eqx.field(static=True, default="linear")
+    reject: float = eqx.field(static=True, default=0.0)
+
+    # ------------------------------------------------------------ accessors
+
+    def _index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no fitted parameter {name!r}; fitted: {list(self.names)}") from None
+
+    def value(self, name: str, unit: str | None = None) -> float:
+        """Fitted value of ``name`` in ``unit`` (default: the parameter's display unit)."""
+        i = self._index(name)
+        return float(self.values[i]) / UNITS[unit or self.units[i]]
+
+    def sigma(self, name: str, unit: str | None = None) -> float:
+        """Standard error of ``name`` in ``unit`` (default: the parameter's display unit)."""
+        i = self._index(name)
+        return float(self.sigmas[i]) / UNITS[unit or self.units[i]]
+
+    @property
+    def message(self) -> str:
+        """Why the solver stopped, in words ('' when it converged)."""
+        if bool(self.converged):
+            return ""
+        if not bool(jnp.all(jnp.isfinite(self.residuals))):
+            return "residuals are not finite (NaN or inf in the data or the model)"
+        if self.result == optx.RESULTS.successful:
+            return "the solver stopped with non-finite values"
+        return optx.RESULTS[self.result] or "the solver did not converge"
+
+    def table(self) -> list[dict[str, Any]]:
+        """One dict per fitted parameter: name, value, sigma, unit (display units)."""
+        vals = np.asarray(self.values)
+        sigs = np.asarray(self.sigmas)
+        return [
+            {"name": n, "value": float(v / UNITS[u]), "sigma": float(s / UNITS[u]), "unit": u}
+            for n, u, v, s in zip(self.names, self.units, vals, sigs)
+        ]
+
+    def outlier_indices(self) -> list[int]:
+        """0-based indices of the observations a robust fit flagged as outliers."""
+        return [int(i) for i in np.flatnonzero(np.asarray(self.outliers))]
+
+    @property
+    def _residual_unit(self) -> str:
+        # Heliostat engineers think in mrad, sun-tracker people in degrees (when every
+        # parameter is in degrees), telescope people in arcsec.
+        if "mrad" in self.units:
+            return "mrad"
+        return "deg" if self.units and all(u == "deg" for u in self.units) else "arcsec"
+
+    def correlated_pairs(self, threshold: float = CORRELATION_WARNING) -> list[tuple[str, str, float]]:
+        """Parameter pairs with |correlation| above ``threshold``."""
+        corr = np.asarray(self.correlation)
+        out = []
+        for i in range(len(self.names)):
+            for j in range(i + 1, len(self.names)):
+                if np.isfinite(corr[i, j]) and abs(corr[i, j]) > threshold:
+                    out.append((self.names[i], self.names[j], float(corr[i, j])))
+        return out
+
+    def warnings(self) -> list[str]:
+        """Plain-language warnings: non-convergence, degenerate and correlated parameters."""
+        out = []
+        if not bool(self.converged):
+            out.append(f"the fit did not converge after {int(self.iterations)} iterations: {self.message}")
+        if not bool(self.robust_converged):
+            out.append(
+                f"the robust ({self.loss}) passes that chose the outliers did not converge; "
+                "the outlier flags may be off (raise max_steps)"
+            )
+        degenerate = [n for n, d in zip(self.names, np.asarray(self.degenerate)) if d]
+        if degenerate:
+            out.append(
+                "the data cannot tell these parameters apart (Jacobian rank-deficient): "
+                + ", ".join(degenerate)
+                + "; fix one of them or add observations that separate them"
+            )
+        for a, b, r in self.correlated_pairs():
+            out.append(f"{a} and {b} are strongly correlated (r = {r:+.3f})")
+        n, m = int(self.n_obs), len(self.names)
+        if n <= m:
+            out.append(f"only {n} observations for {m} parameters: Popn SD is undefined")
+        return out
+
+    def report(self) -> str:
+        """A TPOINT-style report: term, value, sigma; Sky RMS; Popn SD; warnings."""
+        solver_name = SOLVER_NAMES[self.solver]
+        lines = []
+        if self.caption:
+            lines.append(self.caption)
+        lines.append(f"{self.model.describe()}")
+        status = (
+            f"converged in {int(self.iterations)} iterations"
+            if bool(self.converged)
+            else f"NOT CONVERGED after {int(self.iterations)} iterations"
+        )
+        form = " (TPOINT's residuals: terms at the observed position)" if self.model.residual_form == "tpoint" else ""
+        lines.append(f"{solver_name} fit of {int(self.n_obs)} observations{form}: {status}")
+        flagged = self.outlier_indices()
+        if self.loss != "linear":
+            lines.append(
+                f"{self.loss} loss; robust sigma {float(self.robust_scale) / UNITS[self._residual_unit]:.4g} "
+                f"{self._residual_unit}; {len(flagged)} outlier(s) beyond {self.reject:g} sigma"
+                + (f": observations {', '.join(str(i + 1) for i in flagged)}" if flagged else "")
+            )
+        lines.append("")
+        width = max([9] + [len(p.name) for p in self.model.parameters])
+        lines.append(f"       {'coeff':<{width}s}        value       sigma")
+        for k, row in enumerate(self.table(), 1):
+            unit = "" if row["unit"] == "arcsec" else f"  ({row['unit']})"
+            lines.append(f"  {k:3d}  {row['name']:<{width}s} {row['value']:+12.4f} {row['sigma']:11.4f}{unit}")
+        fixed = [p for p in self.model.parameters if p.name in self.model.fixed]
+        for p in fixed:
+            v = float(self.model.get(p.name)) / UNITS[p.unit]
+            unit = "" if p.unit == "arcsec" else f"  ({p.unit})"
+            lines.append(f"       {p.name:<{width}s} {v:+12.4f}       fixed{unit}")
+        lines.append("")
+        unit = self._residual_unit
+        label = "" if unit == "arcsec" else f" {unit}"  # TPOINT prints arcsec bare
+        lines.append(f"Sky RMS = {float(self.sky_rms) / UNITS[unit]:9.4f}{label}")
+        popn = float(self.popn_sd) / UNITS[unit]
+        lines.append(f"Popn SD = {popn:9.4f}{label}" if math.isfinite(popn) else "Popn SD =   undefined")
+        warnings = self.warnings()
+        if warnings:
+            lines.append("")
+            lines.extend(f"WARNING: {w}" for w in warnings)
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary; the keys are stable (see ``pointax fit --json``)."""
+
+        def number(x):
+            x = float(x)
+            return x if math.isfinite(x) else None
+
+        corr = np.asarray(self.correlation)
+        return {
+            "n_obs": int(self.n_obs),
+            "sky_rms_arcsec": number(float(self.sky_rms) / ARCSEC),
+            "popn_sd_arcsec": number(float(self.popn_sd) / ARCSEC),
+            "converged": bool(self.converged),
+            "iterations": int(self.iterations),
+            "message": self.message,
+            "solver": self.solver,
+            "terms": [
+                {
+                    "name": row["name"],
+                    "value_arcsec": number(row["value"] * UNITS[row["unit"]] / ARCSEC),
+                    "sigma_arcsec": number(row["sigma"] * UNITS[row["unit"]] / ARCSEC),
+                    "value": number(row["value"]),
+                    "sigma": number(row["sigma"]),
+                    "unit": row["unit"],
+                }
+                for row in self.table()
+            ],
+            "fixed": {
+                p.name: number(float(self.model.get(p.name)) / UNITS[p.unit])
+                for p in self.model.parameters
+                if p.name in self.model.fixed
+            },
+            "correlation": [[number(c) for c in row] for row in corr],
+            "loss": self.loss,
+            "outliers": self.outlier_indices(),
+            "warnings": self.warnings(),
+        }

@@ -1,0 +1,135 @@
+"""The fit of one run: :func:`fit`.
+
+The model is embedded in its family's union (:mod:`pointax.fitting.structure`), so a
+refit after USE, LOSE, FIX or MASK (other terms, other fixed parameters or values,
+other weights) runs the fit already compiled: only a new term class, mount, residual
+form, data shape or option compiles again.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import numpy as np
+from jaxtyping import Array, Float
+
+from .._x64 import float64
+from ..model import Model
+from ..observations import Observations
+from .core import fit_core, free_mask, restrict
+from .options import FitOptions
+from .residuals import as_observations, check_convention
+from .result import FitResult
+from .structure import embed
+
+__all__ = ["fit", "prepare", "fit_model", "options_from"]
+
+
+def options_from(options: FitOptions | None, **kwargs) -> FitOptions:
+    """``options`` if given (then no keyword may differ from its default), else
+    :class:`FitOptions` from the keywords."""
+    if options is None:
+        return FitOptions(**kwargs)
+    defaults = FitOptions()
+    clash = sorted(k for k, v in kwargs.items() if v != getattr(defaults, k))
+    if clash:
+        raise ValueError(f"give either options= or the keywords {clash}, not both")
+    return options
+
+
+def fit_model(model: Model, obs: Observations, options: FitOptions, caption: str = "") -> FitResult:
+    """The whole fit of ``model``'s free parameters, pure JAX (jit-, vmap- and
+    lax.map-able): :func:`pointax.fitting.core.fit_core` with the model's own fixed
+    names as the mask, restricted to its free parameters."""
+    free = free_mask(model)
+    full = fit_core(model, free, obs, options)
+    return restrict(full, np.flatnonzero(free), model, caption)
+
+
+_fit_core_jit = eqx.filter_jit(fit_core)
+
+
+@float64
+def fit(
+    model: Model,
+    data,
+    *,
+    solver: str = "lm",
+    weights: Float[Array, " n"] | None = None,
+    fixed: tuple[str, ...] = (),
+    max_steps: int = 256,
+    rtol: float = 1e-10,
+    atol: float = 1e-13,
+    caption: str | None = None,
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    reject: float = 3.0,
+    options: FitOptions | None = None,
+) -> FitResult:
+    """Fit the free parameters of ``model`` to pointing observations.
+
+    Args:
+        model: a :class:`pointax.Model` (its current values are the starting point; its
+            ``fixed`` parameters stay as they are).
+        data: :class:`pointax.Observations`, or a run read by :mod:`pointax.io`.
+        solver: 'lm' (Levenberg-Marquardt, default), 'gauss-newton' or 'dogleg'.
+        weights: optional ``(n,)`` relative weights replacing the observations' own
+            (0 masks an observation: it stays in the result's residuals, unused).
+        fixed: more parameter names to hold fixed for this fit.
+        max_steps: solver step limit; a fit that reaches it reports ``converged=False``.
+        rtol, atol: optimistix tolerances on the parameters (radians) and the cost.
+        caption: title line for the report (default: the run's caption, if any).
+        loss: 'linear' (least squares, default) or a robust loss from
+            :data:`pointax.fit.LOSSES` ('cauchy' is the most forgiving of gross outliers).
+        loss_scale: soft margin of the robust loss, radians (default: twice the robust
+            standard deviation of the residuals, re-estimated after a first pass).
+        reject: with a robust loss, observations whose weighted residual norm exceeds
+            ``reject`` robust standard deviations are flagged as ``outliers`` and left
+            out of the final least-squares fit that gives values and statistics.
+        options: all of the above from ``solver`` to ``reject`` but ``weights``,
+            ``fixed`` and ``caption`` as one :class:`pointax.FitOptions` (then leave
+            those keywords at their defaults).
+
+    Returns:
+        A :class:`FitResult`. A fit that fails to converge does not raise: check
+        ``result.converged`` (the report and ``warnings()`` say why).
+
+    Changing the terms, the fixed parameters or their values, or the weights does not
+    compile the fit again (:mod:`pointax.fitting.structure`).
+    """
+    options = options_from(
+        options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
+    )
+    model, obs = prepare(model, data, weights, fixed)
+    if caption is None:
+        caption = getattr(data, "caption", "") or ""
+    embedding = embed(model)
+    full = _fit_core_jit(embedding.model, embedding.free, obs, options)
+    return restrict(full, embedding.index, model, caption, numpy=True)
+
+
+def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tuple[Model, Observations]:
+    """Check and convert :func:`fit`'s inputs: observations (with ``weights``) in the
+    model's convention, ``fixed`` names held, parameters and data as float64 NumPy
+    arrays (traced by ``jit``, not baked in; NumPy so that nothing small is compiled)."""
+    obs = as_observations(data)
+    check_convention(model, obs)
+    if weights is not None:
+        weights = np.asarray(weights, np.float64)
+        if weights.shape != (len(obs),):
+            raise ValueError(f"weights must have shape ({len(obs)},), got {weights.shape}")
+        if np.any(weights < 0) or not np.all(np.isfinite(weights)):
+            raise ValueError("weights must be finite and non-negative")
+        obs = Observations(obs.encoder, obs.target, weights, obs.convention)
+    if fixed:
+        model = model.fix(*fixed)
+    if not np.any(np.asarray(obs.weight) > 0):
+        raise ValueError("no observation has a positive weight: nothing to fit")
+    params = model.parameters
+    model = model.replace_parameters(params, [_host(getattr(model.terms[p.term], p.field)) for p in params])
+    obs = jax.tree.map(_host, obs)
+    return model, obs
+
+
+def _host(x) -> np.ndarray:
+    return np.asarray(x, np.float64)
