@@ -16,7 +16,7 @@ with the paper's exact rotation model (eq 15) and encoder terms (eqs 16-17):
 observatory) on one March night (:mod:`pointax.stars`: Hipparcos bright stars, apparent
 places through astropy with refraction, spread evenly over the sky), 68 drawn at random
 for fitting and 78 kept for validation, as in the paper. Four families are fitted to the
-68 (:func:`pointax.compare.compare`): the paper's basic physical model (eqs 3-4), its
+68 (:func:`pointax.analysis.compare`): the paper's basic physical model (eqs 3-4), its
 spherical-harmonic model (eqs 1-2, 13 + 13 terms), the rigorous rotation model (eqs
 9-17, 10 parameters) and its linearised expansion (eqs 18-19, 16 + 10 terms).
 
@@ -30,13 +30,13 @@ the basic family here.
 The table is printed next to the paper's (Table 3; the paper's text quotes 6.73" and
 7.09" for the basic and harmonic models, its Table 3 6.32" and 6.54"), followed by the
 spread of the totals over further noise draws and splits, and by automatic model
-building (:func:`pointax.compare.build_model`) from the basic family with the harmonic
+building (:func:`pointax.analysis.build_model`) from the basic family with the harmonic
 and linearised terms as candidates.
 
 Run:  .venv/bin/python examples/compare_model_families.py [--json OUT.json] [--write-data RUN.txt] [--draws N]
 (about 40-70 s on two cores, most of it compiling the fits once.)
 ``--write-data`` writes the 68 fitting stars in the X-Y text format of
-``pointax compare --mount xy`` (:mod:`pointax.compare_cli`).
+``pointax compare --mount xy`` (:mod:`pointax.cli.compare`).
 """
 
 from __future__ import annotations
@@ -57,8 +57,8 @@ import numpy as np  # noqa: E402
 
 import pointax as px  # noqa: E402
 from pointax import stars  # noqa: E402
-from pointax.compare import build_model, compare  # noqa: E402
-from pointax.compare_cli import write_xy_run  # noqa: E402
+from pointax.analysis import build_model, compare  # noqa: E402
+from pointax.io import write_xy_run  # noqa: E402
 from pointax.terms import xy  # noqa: E402
 
 SITE = px.sky.site(43.79, 125.44, 270.0)  # near Changchun Observatory (approximate)

@@ -8,36 +8,73 @@ JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
     run = px.io.read_tpoint("examples/data/mmt_20210821.dat", azimuth="S-E")
     model = px.AltAz(px.terms.tpoint("IA IE NPAE CA AN AW TF TX"), azimuth=run.azimuth)
     print(px.fit(model, run).report())
+
+The names below load from their modules on first use (PEP 562, :mod:`pointax._lazy`):
+``import pointax`` imports no numerical library, and astropy (:mod:`pointax.sky`,
+:mod:`pointax.stars`), torch (:mod:`pointax.sunsensor`), dask
+(:mod:`pointax.distributed`) and the solvers load when something needs them.
 """
 
-from . import distributed, io, network, rotations, sky, stars, terms, trig, units
-from .batch import fit_batch, site_result, site_statuses, stack_observations
-from .command import Command, command, command_reflector, reflect_normal
-from .compare import Comparison, ModelBuild, build_model, compare
-from .compilation_cache import enable_compilation_cache
-from .fit import FitResult, fit, residuals
-from .heliostat import HeliostatCalibration, calibrate_heliostat, heliostat_model
-from .model import AltAz, Model, ParameterInfo, Turntable
-from .mount_models import XY, XY_FAMILIES, Equatorial, xy_family
-from .mounts import (
-    AZIMUTH_CONVENTIONS,
-    AltAzMount,
-    EquatorialMount,
-    HeliostatMount,
-    Mount,
-    SphericalMount,
-    TurntableMount,
-    XYMount,
-)
-from .network import fit_network
-from .observations import Observations
-from .shared import SharedFit, fit_shared
-from .simulate import simulate
-from .terms import Term, param
-from .units import arcsec, deg, rad
-from .validate import LeaveOneOut, leave_one_out
+from ._lazy import lazy_namespace
 
 __version__ = "0.1.0"
+
+# Public name -> the module that defines it.
+_EXPORTS = {
+    "fit_batch": "batch",
+    "site_result": "batch",
+    "site_statuses": "batch",
+    "stack_observations": "batch",
+    "Command": "command",
+    "command": "command",
+    "command_reflector": "command",
+    "reflect_normal": "command",
+    "Comparison": "analysis",
+    "ModelBuild": "analysis",
+    "build_model": "analysis",
+    "compare": "analysis",
+    "enable_compilation_cache": "compilation_cache",
+    "FitOptions": "fitting",
+    "FitResult": "fitting",
+    "fit": "fitting",
+    "residuals": "fitting",
+    "HeliostatCalibration": "heliostat",
+    "calibrate_heliostat": "heliostat",
+    "heliostat_model": "heliostat",
+    "AltAz": "model",
+    "Model": "model",
+    "ParameterInfo": "model",
+    "Turntable": "model",
+    "XY": "mount_models",
+    "XY_FAMILIES": "mount_models",
+    "Equatorial": "mount_models",
+    "xy_family": "mount_models",
+    "AZIMUTH_CONVENTIONS": "mounts",
+    "AltAzMount": "mounts",
+    "EquatorialMount": "mounts",
+    "HeliostatMount": "mounts",
+    "Mount": "mounts",
+    "SphericalMount": "mounts",
+    "TurntableMount": "mounts",
+    "XYMount": "mounts",
+    "fit_network": "network",
+    "Observations": "observations",
+    "SharedFit": "shared",
+    "fit_shared": "shared",
+    "simulate": "simulate",
+    "Term": "terms",
+    "param": "terms",
+    "arcsec": "units",
+    "deg": "units",
+    "rad": "units",
+    "LeaveOneOut": "validate",
+    "leave_one_out": "validate",
+}
+
+# Submodules exported as themselves.
+_SUBMODULES = ("analysis", "distributed", "fitting", "io", "network", "rotations", "sky", "stars", "terms", "trig", "units")
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)
 
 __all__ = [
     "AltAz",
@@ -50,6 +87,7 @@ __all__ = [
     "compare",
     "Equatorial",
     "EquatorialMount",
+    "FitOptions",
     "FitResult",
     "HeliostatCalibration",
     "HeliostatMount",
@@ -61,8 +99,10 @@ __all__ = [
     "Term",
     "arcsec",
     "deg",
+    "analysis",
     "distributed",
     "enable_compilation_cache",
+    "fitting",
     "calibrate_heliostat",
     "command",
     "command_reflector",

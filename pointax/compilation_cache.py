@@ -18,6 +18,8 @@ from pathlib import Path
 
 import jax
 
+from .fitting import programs
+
 __all__ = ["default_cache_dir", "enable_compilation_cache"]
 
 
@@ -40,6 +42,10 @@ def enable_compilation_cache(directory: str | os.PathLike | None = None, min_com
         min_compile_seconds: only programs that took at least this long to compile
             are kept (the small ones are quicker to compile than to load).
 
+    The traced fits go into its ``programs`` folder (:mod:`pointax.fitting.programs`),
+    so that a later process neither traces nor compiles a fit of the same structure
+    again; :func:`pointax.fitting.programs.clear` empties it.
+
     Returns:
         The directory in use, or None when ``$POINTAX_JAX_CACHE`` is empty and no
         ``directory`` is given (the cache stays off).
@@ -53,4 +59,5 @@ def enable_compilation_cache(directory: str | os.PathLike | None = None, min_com
     path.mkdir(parents=True, exist_ok=True)
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_seconds))
+    programs.set_directory(path / "programs")
     return path

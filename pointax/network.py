@@ -1,5 +1,6 @@
 """Refit a network of sites listed in a manifest: one batched fit per model, a status
-per site, a progress bar and a summary for people.
+per site, a progress bar and a summary for people (the command line:
+``pointax fit-network``, :mod:`pointax.cli.fit_network`).
 
     result = px.network.fit_network("sites.csv", progress=True)
     print(result.summary())              # how many converged; which did not, and why
@@ -53,7 +54,6 @@ says why: unreadable data, non-finite residuals, no convergence).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import dataclasses
 import json
@@ -72,12 +72,12 @@ import numpy as np
 from . import terms as term_library
 from ._x64 import float64
 from .batch import fit_batch, site_result, site_statuses, stack_observations
-from .fit import SOLVERS, FitResult
+from .fitting.core import SOLVERS
+from .fitting.result import FitResult
 from .heliostat import calibrate_heliostat
 from .io.errors import FileFormatError
-from .io.paint import FOCAL_SPOT_METHODS, read_paint
-from .io.sun import read_sun_observations
-from .io.tpoint import read_tpoint
+from .io.load import load_run
+from .io.paint import FOCAL_SPOT_METHODS
 from .model import RESIDUAL_FORMS, AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .terms.heliostat import HELIOSTAT_DEFAULT
@@ -92,8 +92,6 @@ __all__ = [
     "NetworkResult",
     "fit_network",
     "ProgressBar",
-    "add_fit_network_parser",
-    "run_fit_network",
 ]
 
 FORMATS = ("sun", "tpoint", "paint")
@@ -402,13 +400,13 @@ def _status_of(result: FitResult) -> dict[str, str]:
 def _read(entry: SiteEntry):
     """The site's data, or raise with the reader's message (file, line, field)."""
     if entry.format == "sun":
-        run = read_sun_observations(entry.path)
+        run = load_run(entry.path, "sun")
         if not np.any(run.weight > 0):
             raise ValueError(f"{entry.path}: no observation has a positive weight: nothing to fit")
         return run
     if entry.format == "tpoint":
-        return read_tpoint(entry.path, azimuth=entry.azimuth)
-    return read_paint(entry.path, focal_spot=entry.focal_spot)
+        return load_run(entry.path, "tpoint", azimuth=entry.azimuth)
+    return load_run(entry.path, "paint", focal_spot=entry.focal_spot)
 
 
 def _header(entry: SiteEntry) -> dict[str, Any]:
@@ -553,72 +551,3 @@ def _calibrate(entry: SiteEntry, run, solver: str, max_steps: int) -> dict[str, 
     except ValueError as err:
         return {**_header(entry), "status": "failed", "reason": str(err), "converged": False}
     return {**_header(entry), **_status_of(cal.result), **cal.to_dict()}
-
-
-# --------------------------------------------------------------------------- command line
-
-
-def add_fit_network_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``pointax fit-network`` to an ``argparse`` sub-parser set; returns its parser."""
-    p = subparsers.add_parser(
-        "fit-network",
-        help="fit every site of a network manifest in batched fits; per-site status and a summary",
-        description="Fit every site listed in MANIFEST (CSV: site, path, format[, terms, form, residuals, azimuth, "
-        "focal_spot]; see pointax.network). Exit status 0 when every site converged, 1 when some did "
-        "not (degenerate or failed), 2 for a bad manifest.",
-    )
-    p.add_argument("manifest", help="CSV manifest: one row per site (site, path, format, ...)")
-    p.add_argument("--json", action="store_true", help="print a JSON list, one object per site, instead of the table")
-    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary on standard error")
-    p.add_argument("--chunk-size", type=int, default=1000, help="sites per compiled call (default: %(default)s)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (e.g. tcp://host:8786) to fit on a cluster")
-    p.add_argument("--solver", choices=sorted(SOLVERS), default="lm", help="least-squares solver (default: lm)")
-    p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
-    return p
-
-
-def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
-    """Run ``pointax fit-network`` for parsed ``args``; returns the exit status
-    (0 every site converged, 1 some did not, 2 bad manifest or options)."""
-    stdout = stdout if stdout is not None else sys.stdout
-    stderr = stderr if stderr is not None else sys.stderr
-    client = None
-    progress = None
-    try:
-        if args.chunk_size < 1:
-            raise ValueError(f"--chunk-size must be a positive number of sites, got {args.chunk_size}")
-        if args.scheduler:
-            try:
-                from distributed import Client
-            except ImportError:
-                raise ValueError('--scheduler needs Dask distributed: pip install "dask[distributed]"') from None
-            client = Client(args.scheduler)
-        progress = False if args.quiet else ProgressBar(0, stream=stderr)
-        result = fit_network(
-            args.manifest,
-            solver=args.solver,
-            max_steps=args.max_steps,
-            chunk_size=args.chunk_size,
-            progress=progress,
-            client=client,
-        )
-    except (ManifestError, ValueError) as err:
-        print(f"pointax fit-network: error: {err}", file=stderr)
-        return 2
-    except OSError as err:
-        print(f"pointax fit-network: error: {err.filename or args.manifest}: {err.strerror or err}", file=stderr)
-        return 2
-    finally:
-        if progress:
-            progress.close()
-        if client is not None:
-            client.close()
-    if args.json:
-        print(result.to_json(), file=stdout)
-        if not args.quiet:
-            print(result.summary(), file=stderr)
-    else:
-        print(result.table(), file=stdout)
-        print("", file=stdout)
-        print(result.summary(), file=stdout)
-    return 0 if result.all_converged else 1

@@ -23,7 +23,7 @@ from conftest import MMT_DAT, MMT_MOD
 from scipy import stats
 
 import pointax as px
-from pointax.compare import (
+from pointax.analysis import (
     BEFORE,
     axis_rms,
     build_model,
@@ -33,14 +33,8 @@ from pointax.compare import (
     holdout_indices,
     information_criteria,
 )
-from pointax.compare_cli import (
-    XYFormatError,
-    add_compare_parser,
-    parse_families,
-    read_xy_run,
-    run_compare,
-    write_xy_run,
-)
+from pointax.cli.compare import add_compare_parser, parse_families, run_compare
+from pointax.io.xy import XYFormatError, read_xy_run, write_xy_run
 from pointax.terms import xy
 
 ARCSEC = np.pi / 648000

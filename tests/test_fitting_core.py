@@ -171,3 +171,38 @@ def test_false_linearity_claims_are_refused(term, why):
 def test_library_tpoint_terms_pass_the_linearity_check():
     terms = px.terms.tpoint("IA IE NPAE CA AN AW TF TX ACEC ECES HACA2 HESE4")
     assert len(px.AltAz(terms, residual_form="tpoint").terms) == len(terms)
+
+
+def test_a_fresh_process_loads_the_traced_fit(tmp_path):
+    """With the caches on, a second process fitting the same structure loads the
+    exported program instead of tracing the fit (counted, not timed), and gets the
+    same numbers; clear() empties the folder."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import json, pointax as px\n"
+        "from pointax.fitting import programs\n"
+        "px.enable_compilation_cache()\n"
+        f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
+        "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
+        "print(json.dumps({'stats': programs.STATS, 'values': [float(v) for v in r.values]}))\n"
+    )
+    env = {**os.environ, "POINTAX_JAX_CACHE": str(tmp_path / "cache")}
+    outs = []
+    for _ in range(2):
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        outs.append(json.loads(proc.stdout.splitlines()[-1]))
+    first, second = outs
+    assert first["stats"]["exported"] == 1 and first["stats"]["stored"] == 1 and first["stats"]["loaded"] == 0
+    assert second["stats"]["exported"] == 0 and second["stats"]["loaded"] == 1
+    assert second["values"] == first["values"]
+    folder = tmp_path / "cache" / "programs"
+    assert len(list(folder.glob("*.program"))) == 1
+    from pointax.fitting import programs
+
+    programs.clear(folder)
+    assert not folder.exists()

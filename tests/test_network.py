@@ -19,13 +19,12 @@ from conftest import EXAMPLES, MMT_DAT, MMT_MOD
 
 import pointax as px
 from pointax.cli import main as pointax_main
+from pointax.cli.fit_network import add_fit_network_parser, run_fit_network
 from pointax.network import (
     ManifestError,
     ProgressBar,
-    add_fit_network_parser,
     fit_network,
     read_manifest,
-    run_fit_network,
 )
 
 NETWORK = EXAMPLES / "data" / "network"

@@ -15,7 +15,7 @@ Image = pytest.importorskip("PIL.Image")
 
 from astropy.io import fits  # noqa: E402
 
-from pointax.sunsensor.cli import add_centroid_parser, run_centroid  # noqa: E402
+from pointax.cli.centroid import add_centroid_parser, run_centroid  # noqa: E402
 from pointax.sunsensor.frames import Detector, synthetic_frames  # noqa: E402
 from pointax.sunsensor.imageio import FrameReadError, read_frame  # noqa: E402
 
@@ -123,12 +123,12 @@ def test_parser_is_light_and_the_stand_alone_entry_point_runs(files, capsys):
     import sys
 
     from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
-    from pointax.sunsensor.cli import METHODS, main
+    from pointax.cli.centroid import METHODS, main
 
     assert METHODS == CENTROID_METHODS
     # Building the `pointax` parser must not import torch (the lead wires it into
     # pointax.cli, which every `pointax fit` imports).
-    code = "import sys, pointax.sunsensor.cli; sys.exit('torch' in sys.modules)"
+    code = "import sys, pointax.cli.centroid; sys.exit('torch' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
     paths, _ = files
     assert main([paths["npy_2"], "--saturation", "4095"]) == 0

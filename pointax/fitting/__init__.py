@@ -10,21 +10,41 @@
 * :mod:`~pointax.fitting.result`: :class:`FitResult`.
 """
 
-from .core import LOSSES, SOLVERS, fit_core, free_mask, least_squares, restrict, result_from_covariance
-from .options import LOSS_NAMES, SOLVER_NAMES, FitOptions
-from .residuals import as_observations, check_convention, residuals
-from .result import CORRELATION_WARNING, FitResult
-from .solo import fit, fit_model, options_from, prepare
-from .statistics import (
-    DEGENERATE_RCOND,
-    RAYLEIGH_MEDIAN,
-    Statistics,
-    normalised_weights,
-    robust_sigma,
-    statistics,
-    svd_unit_covariance,
-)
-from .structure import embed
+from .._lazy import lazy_namespace
+
+# Public name -> the module that defines it (loaded on first use: the command line reads
+# the option names in :mod:`.options` without importing JAX).
+_EXPORTS = {
+    "LOSSES": "core",
+    "SOLVERS": "core",
+    "fit_core": "core",
+    "free_mask": "core",
+    "least_squares": "core",
+    "restrict": "core",
+    "result_from_covariance": "core",
+    "LOSS_NAMES": "options",
+    "SOLVER_NAMES": "options",
+    "FitOptions": "options",
+    "as_observations": "residuals",
+    "check_convention": "residuals",
+    "residuals": "residuals",
+    "CORRELATION_WARNING": "result",
+    "FitResult": "result",
+    "fit": "solo",
+    "fit_model": "solo",
+    "options_from": "solo",
+    "prepare": "solo",
+    "DEGENERATE_RCOND": "statistics",
+    "RAYLEIGH_MEDIAN": "statistics",
+    "Statistics": "statistics",
+    "normalised_weights": "statistics",
+    "robust_sigma": "statistics",
+    "statistics": "statistics",
+    "svd_unit_covariance": "statistics",
+    "embed": "structure",
+}
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, ("structure",))
 
 __all__ = [
     "CORRELATION_WARNING",

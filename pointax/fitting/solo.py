@@ -16,7 +16,8 @@ from jaxtyping import Array, Float
 from .._x64 import float64
 from ..model import Model
 from ..observations import Observations
-from .core import fit_core, free_mask, restrict
+from . import programs
+from .core import fit_core, free_mask, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
 from .result import FitResult
@@ -104,7 +105,11 @@ def fit(
     if caption is None:
         caption = getattr(data, "caption", "") or ""
     embedding = embed(model)
-    full = _fit_core_jit(embedding.model, embedding.free, obs, options)
+    if programs.directory() is not None:  # traced programs kept on disk
+        args = (embedding.model, embedding.free, obs)
+        full = programs.call("fit_core", fit_core, args, options, result_structure)
+    else:
+        full = _fit_core_jit(embedding.model, embedding.free, obs, options)
     return restrict(full, embedding.index, model, caption, numpy=True)
 
 

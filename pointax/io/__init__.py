@@ -1,54 +1,77 @@
 """File formats: TPOINT input and model files; RTS2 gpoint alt-az runs; PAINT heliostat
-calibration data; sun-tracker observation files (pointax's own text format)."""
+calibration data; sun-tracker observation files (pointax's own text format); X-Y mount
+runs (``L B L0 B0``). :func:`load_run` reads a run in any of them, telling the format
+from the file when it is not given.
 
-from .errors import FileFormatError
-from .gpoint import (
-    GPOINT_AZIMUTH,
-    GpointFormatError,
-    GpointRun,
-    parse_gpoint,
-    read_gpoint,
-)
-from .paint import (
-    FOCAL_SPOT_METHODS,
-    CalibrationSample,
-    HeliostatProperties,
-    LinearActuator,
-    PaintFormatError,
-    PaintRun,
-    TargetPlane,
-    Tower,
-    paint_azimuth_to_north_east,
-    read_calibration,
-    read_heliostat,
-    read_paint,
-    read_tower,
-    sun_enu_from_paint,
-    wgs84_to_enu,
-)
-from .sun import (
-    SunFormatError,
-    SunRun,
-    format_sun_observations,
-    parse_sun_observations,
-    read_sun_observations,
-    write_sun_observations,
-)
-from .tpoint import (
-    ModelTerm,
-    RunParameters,
-    TpointFormatError,
-    TpointModelFile,
-    TpointRun,
-    format_model,
-    parse_model,
-    parse_tpoint,
-    read_model,
-    read_tpoint,
-    write_model,
-)
+The names load from their modules on first use (PEP 562, :mod:`pointax._lazy`), so that
+``from pointax.io import load_run`` imports no numerical library until a file is read.
+"""
+
+from .._lazy import lazy_namespace
+
+# Public name -> the module that defines it.
+_EXPORTS = {
+    "FileFormatError": "errors",
+    "GPOINT_AZIMUTH": "gpoint",
+    "GpointFormatError": "gpoint",
+    "GpointRun": "gpoint",
+    "parse_gpoint": "gpoint",
+    "read_gpoint": "gpoint",
+    "FOCAL_SPOT_METHODS": "paint",
+    "CalibrationSample": "paint",
+    "HeliostatProperties": "paint",
+    "LinearActuator": "paint",
+    "PaintFormatError": "paint",
+    "PaintRun": "paint",
+    "TargetPlane": "paint",
+    "Tower": "paint",
+    "paint_azimuth_to_north_east": "paint",
+    "read_calibration": "paint",
+    "read_heliostat": "paint",
+    "read_paint": "paint",
+    "read_tower": "paint",
+    "sun_enu_from_paint": "paint",
+    "wgs84_to_enu": "paint",
+    "SunFormatError": "sun",
+    "SunRun": "sun",
+    "format_sun_observations": "sun",
+    "parse_sun_observations": "sun",
+    "read_sun_observations": "sun",
+    "write_sun_observations": "sun",
+    "ModelTerm": "tpoint",
+    "RunParameters": "tpoint",
+    "TpointFormatError": "tpoint",
+    "TpointModelFile": "tpoint",
+    "TpointRun": "tpoint",
+    "format_model": "tpoint",
+    "parse_model": "tpoint",
+    "parse_tpoint": "tpoint",
+    "read_model": "tpoint",
+    "read_tpoint": "tpoint",
+    "write_model": "tpoint",
+    "XYFormatError": "xy",
+    "XYRun": "xy",
+    "read_xy_run": "xy",
+    "write_xy_run": "xy",
+    "RUN_FORMATS": "load",
+    "RUN_OPTIONS": "load",
+    "FormatDetectionError": "load",
+    "detect_format": "load",
+    "load_run": "load",
+}
+
+_SUBMODULES = ("errors", "gpoint", "load", "paint", "sun", "tpoint", "xy")
 
 __all__ = [
+    "RUN_FORMATS",
+    "RUN_OPTIONS",
+    "FormatDetectionError",
+    "detect_format",
+    "load_run",
+    "XYFormatError",
+    "XYRun",
+    "read_xy_run",
+    "write_xy_run",
     "FileFormatError",
     "SunFormatError",
     "SunRun",
@@ -88,3 +111,5 @@ __all__ = [
     "read_tpoint",
     "write_model",
 ]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)

@@ -469,7 +469,7 @@ def write_model(path: str | os.PathLike, source, caption: str | None = None, ref
     terms are written under their names (``HACA2``) and read back as the same terms.
     For a fit result the sigmas, N and Sky RMS are written too.
     """
-    from ..fit import FitResult
+    from ..fitting.result import FitResult
 
     if isinstance(source, FitResult):
         model, sigmas = source.model, dict(zip(source.names, np.asarray(source.sigmas)))

@@ -12,7 +12,7 @@ An edge of pointax built on torch and kornia (the JAX core never imports it):
 * :mod:`~pointax.sunsensor.pipeline`: frames + encoder readings + sun directions ->
   :class:`pointax.Observations` of the camera axis (see
   :mod:`pointax.terms.camera` for the camera's mounting term).
-* :mod:`~pointax.sunsensor.imageio`, :mod:`~pointax.sunsensor.cli`: PNG / FITS / .npy
+* :mod:`~pointax.sunsensor.imageio`, :mod:`pointax.cli.centroid`: PNG / FITS / .npy
   frames and ``pointax centroid``.
 
     from pointax.sunsensor import paper_camera, centroid, sensor_observations
@@ -22,10 +22,10 @@ An edge of pointax built on torch and kornia (the JAX core never imports it):
     result = px.fit(model_with_camera_term, data)
 """
 
-import importlib
+from .._lazy import lazy_namespace
 
 # Names -> submodule. Loaded on first use (PEP 562), so that importing
-# pointax.sunsensor.cli (for the ``pointax`` command's parser) does not import torch.
+# pointax.cli.centroid (for the ``pointax`` command's parser) does not import torch.
 _EXPORTS = {
     "Camera": "camera",
     "paper_camera": "camera",
@@ -54,13 +54,6 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+# ``centroid`` is both a function and the submodule defining it: the package keeps the
+# function whichever is imported first (pointax._lazy).
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS)

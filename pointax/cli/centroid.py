@@ -12,7 +12,8 @@ clipped, cloud, saturated ...), 2 for bad input (a file that cannot be read, a b
 option); every frame is still reported.
 
 Wired into the ``pointax`` command by :func:`add_centroid_parser` and
-:func:`run_centroid`.
+:func:`run_centroid` (the frames and centroids: :mod:`pointax.sunsensor`, loaded by
+:func:`run_centroid` only, so that the parser imports no torch).
 """
 
 from __future__ import annotations
@@ -22,11 +23,13 @@ import json
 import math
 import sys
 
+from . import choices
+
 __all__ = ["add_centroid_parser", "run_centroid", "main", "METHODS"]
 
-METHODS = ("auto", "intensity", "limb")
-"""``--method`` choices (those of :func:`pointax.sunsensor.centroid.centroid`). Kept here
-so that building the parser does not import torch; the centroid code loads on use."""
+METHODS = choices.CENTROID_METHODS
+"""``--method`` choices (those of :func:`pointax.sunsensor.centroid.centroid`), a copy
+in :mod:`pointax.cli.choices`, so that building the parser does not import torch."""
 
 
 def add_centroid_parser(subparsers) -> argparse.ArgumentParser:
@@ -39,6 +42,7 @@ def add_centroid_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("frames", nargs="+", metavar="FRAME", help="frame files: .png (8 or 16 bit), .fits, .npy")
     p.add_argument("--json", action="store_true", help="print one JSON list, an object per frame")
+    p.set_defaults(run=run_centroid)
     p.add_argument("--method", choices=METHODS, default="auto", help="centroid method (default: auto)")
     p.add_argument("--radius", type=float, default=None, help="expected sun radius along x, pixels (default: measured)")
     p.add_argument("--aspect", type=float, default=1.0, help="pixel aspect fy/fx of the camera (default 1)")
@@ -77,8 +81,8 @@ def _format(rows: list[dict]) -> str:
 
 def run_centroid(args: argparse.Namespace) -> int:
     """Run ``pointax centroid`` for parsed ``args``; returns the exit status."""
-    from .centroid import centroid
-    from .imageio import FrameReadError, read_frame
+    from ..sunsensor.centroid import centroid
+    from ..sunsensor.imageio import FrameReadError, read_frame
 
     for option in ("radius", "aspect", "saturation"):
         value = getattr(args, option)
@@ -117,7 +121,7 @@ def run_centroid(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point (``python -m pointax.sunsensor.cli FRAME...``)."""
+    """Stand-alone entry point (``python -m pointax.cli.centroid FRAME...``)."""
     parser = argparse.ArgumentParser(prog="pointax")
     sub = parser.add_subparsers(dest="command", required=True)
     add_centroid_parser(sub)

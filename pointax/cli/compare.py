@@ -1,6 +1,6 @@
 """``pointax compare``: fit several model families to one pointing run and compare them.
 
-    pointax compare DATA --families basic,harmonic [--mount altaz|xy] [--format tpoint|gpoint]
+    pointax compare DATA --families basic,harmonic [--mount altaz|xy] [--format tpoint|gpoint|xy]
                     [--azimuth N-E|S-E|S-W] [--holdout FRACTION | --folds K] [--seed N]
                     [--per-axis angle|sky] [--form linear|rigorous] [--json]
 
@@ -8,15 +8,17 @@
 21-23; default for ``--mount xy``) or of the offset on the sky (``dA cos E``, TPOINT's;
 default for alt-az).
 
-DATA is a TPOINT input file (``--format tpoint``, the default; ``--azimuth`` says how it
-counts azimuth), an RTS2 gpoint file (``--format gpoint``) or, with ``--mount xy``, an
-X-Y mount run in the text format below.
+DATA is a TPOINT input file (``--format tpoint``; ``--azimuth`` says how it counts
+azimuth), an RTS2 gpoint file (``--format gpoint``) or an X-Y mount run in the text
+format below (``--format xy`` or ``--mount xy``). Without ``--format`` the format is
+told from the file (:func:`pointax.io.detect_format`); without ``--mount`` the mount is
+``xy`` for an X-Y run and ``altaz`` otherwise.
 
 ``--families`` lists the families: family names separated by commas
 (``basic,harmonic``), or families separated by ``;``, each a family name, a term list
 or ``label=terms`` (``"basic;IA IE CA NPAE AN AW TF TX HACA2"``,
 ``"tpoint8=basic;mine=basic HACA2 HESE2"``). Names are those of
-:func:`pointax.compare.family_model`: alt-az ``basic`` (TPOINT's eight), ``harmonic``
+:func:`pointax.analysis.family_model`: alt-az ``basic`` (TPOINT's eight), ``harmonic``
 (those and the second azimuth harmonics), TPOINT term names, and with ``--format
 gpoint`` gpoint's names (``gpoint`` = gpoint's seven, ``ia``, extras); X-Y ``basic``,
 ``harmonic``, ``rotation``, ``linearised`` and term names of :mod:`pointax.terms.xy`.
@@ -30,11 +32,12 @@ FRACTION`` (that fraction held back at random, ``--seed``), or ``--folds 0`` for
 ``L B L0 B0``: the encoder readings ``L, B`` and where the star is, ``L0, B0``, as X-Y
 angles (the level-mount paper's eq 20 columns; the direction is ``(sin L0 cos B0, sin
 B0, cos L0 cos B0)`` in East-North-Up). ``#`` starts a comment; fields may be separated
-by spaces, tabs or commas. :func:`write_xy_run` writes it.
+by spaces, tabs or commas. :func:`pointax.io.write_xy_run` writes it,
+:func:`pointax.io.read_xy_run` reads it (:mod:`pointax.io.xy`).
 
-Output: the comparison table (:meth:`pointax.compare.Comparison.table`) or, with
+Output: the comparison table (:meth:`pointax.analysis.Comparison.table`) or, with
 ``--json``, one object: ``file``, ``mount``, ``format`` and the keys of
-:meth:`pointax.compare.Comparison.to_dict` (``scheme``, ``n_fit``, ``n_validation``,
+:meth:`pointax.analysis.Comparison.to_dict` (``scheme``, ``n_fit``, ``n_validation``,
 ``families``: per family ``label``, ``n_params``, ``in_sample`` and ``out_of_sample``
 (``axis1``, ``axis2``, ``total`` in arcsec, ``n``), ``sky_rms``, ``aic``, ``bic``,
 ``terms`` with ``significance``, ``warnings``, ``converged``). Exit status: 0 when
@@ -46,93 +49,22 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import os
 import sys
-from pathlib import Path
 
-import numpy as np
+from . import choices
+from .common import error, missing_input, os_error_text
 
-from .compare import Comparison, compare
-from .io import (
-    FileFormatError,
-    GpointFormatError,
-    TpointFormatError,
-    read_gpoint,
-    read_tpoint,
-)
-from .mounts import AZIMUTH_CONVENTIONS
-from .observations import Observations
-from .terms import FORMS
-from .terms.xy import FAMILIES as XY_FAMILIES
+__all__ = ["COMPARE_FORMATS", "add_compare_parser", "run_compare", "parse_families", "main"]
 
-__all__ = ["add_compare_parser", "run_compare", "read_xy_run", "write_xy_run", "parse_families", "XYFormatError"]
+COMPARE_FORMATS = ("tpoint", "gpoint", "xy")
+"""The run formats ``pointax compare`` reads."""
 
-
-class XYFormatError(FileFormatError):
-    """An X-Y run file could not be read; the message names file, line and field."""
-
-
-XY_FIELDS = ("L", "B", "L0", "B0")
-
-
-def read_xy_run(path: str | os.PathLike) -> Observations:
-    """Read an X-Y run in the text format of this module (``L B L0 B0`` in degrees).
-
-    Returns:
-        :class:`pointax.Observations` with convention 'xy': encoder ``(L, B)`` radians,
-        targets ``(sin L0 cos B0, sin B0, cos L0 cos B0)`` in East-North-Up.
-
-    Raises:
-        XYFormatError: naming the file, line and field of the first bad value.
-        OSError: the file cannot be read.
-    """
-    name = os.fspath(path)
-    rows = []
-    for number, line in enumerate(Path(path).read_text().splitlines(), 1):
-        fields = line.split("#", 1)[0].replace(",", " ").split()
-        if not fields:
-            continue
-        if len(fields) != 4:
-            raise XYFormatError(name, number, f"expected 4 numbers L B L0 B0 (degrees), got {len(fields)}: {line.strip()!r}")
-        values = []
-        for field, token in zip(XY_FIELDS, fields):
-            try:
-                x = float(token)
-            except ValueError:
-                raise XYFormatError(name, number, f"not a number: {token!r}", f"field {field}") from None
-            if not math.isfinite(x):
-                raise XYFormatError(name, number, f"not finite: {token!r}", f"field {field}")
-            if field == "B0" and abs(x) > 90.0:
-                raise XYFormatError(name, number, f"{x} is outside -90..90 deg", f"field {field}")
-            values.append(x)
-        rows.append(values)
-    if not rows:
-        raise XYFormatError(name, None, "no observations (expected lines of L B L0 B0 in degrees)")
-    a = np.radians(np.asarray(rows, np.float64))
-    L0, B0 = a[:, 2], a[:, 3]
-    target = np.stack([np.sin(L0) * np.cos(B0), np.sin(B0), np.cos(L0) * np.cos(B0)], axis=1)
-    return Observations(a[:, :2], target, convention="xy")
-
-
-def write_xy_run(path: str | os.PathLike, observations, comments: tuple[str, ...] = ()) -> None:
-    """Write X-Y observations (convention 'xy') in the text format of this module."""
-    obs = observations if isinstance(observations, Observations) else observations.observations
-    if obs.convention != "xy":
-        raise ValueError(f"write_xy_run writes X-Y runs; these observations are {obs.convention!r}")
-    enc = np.degrees(np.asarray(obs.encoder, np.float64))
-    t = np.asarray(obs.target, np.float64)
-    L0 = np.degrees(np.arctan2(t[:, 0], t[:, 2]))
-    B0 = np.degrees(np.arcsin(np.clip(t[:, 1], -1.0, 1.0)))
-    lines = [f"# {c}" for c in comments]
-    lines.append("# X-Y pointing run: L B (encoder readings) L0 B0 (the star), degrees")
-    lines += [f"{a:.9f} {b:.9f} {c:.9f} {d:.9f}" for (a, b), c, d in zip(enc, L0, B0)]
-    Path(path).write_text("\n".join(lines) + "\n")
+_PREFIX = "pointax compare"
 
 
 def _known_names(mount: str, naming: str) -> set[str]:
     if mount == "xy":
-        return set(XY_FAMILIES) | {"linearized"}
+        return set(choices.XY_FAMILIES) | {"linearized"}
     names = {"basic", "harmonic"}
     return names | {"gpoint"} if naming == "gpoint" else names
 
@@ -176,7 +108,7 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
         description="Fit several model families to one pointing run and compare them fairly.",
     )
     p.add_argument(
-        "data", help="pointing run: TPOINT file, gpoint file (--format gpoint) or X-Y text file (--mount xy)"
+        "data", help="pointing run: TPOINT file, gpoint file or X-Y text file (told from the file, or --format)"
     )
     p.add_argument(
         "--families",
@@ -187,17 +119,22 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--family", action="append", default=None, metavar="SPEC", help="one more family (may contain ';'); repeatable"
     )
-    p.add_argument("--mount", choices=["altaz", "xy"], default="altaz", help="mount kind (default: altaz)")
     p.add_argument(
-        "--format", choices=["tpoint", "gpoint"], default="tpoint", help="alt-az input format (default: tpoint)"
+        "--mount", choices=["altaz", "xy"], default=None, help="mount kind (default: xy for an X-Y run, else altaz)"
+    )
+    p.add_argument(
+        "--format",
+        choices=list(COMPARE_FORMATS),
+        default=None,
+        help="input format (default: told from the file; --mount xy reads the X-Y format)",
     )
     p.add_argument(
         "--azimuth",
-        choices=sorted(AZIMUTH_CONVENTIONS),
+        choices=sorted(choices.AZIMUTH_CONVENTIONS),
         default="N-E",
         help="tpoint: how the file counts azimuth (default N-E; the MMT run is S-E)",
     )
-    p.add_argument("--form", choices=sorted(FORMS), default="linear", help="alt-az TPOINT term form (default: linear)")
+    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="alt-az TPOINT term form (default: linear)")
     group = p.add_mutually_exclusive_group()
     group.add_argument(
         "--holdout", type=float, default=None, metavar="FRACTION", help="hold back this fraction of the stars at random"
@@ -219,26 +156,40 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.set_defaults(run=run_compare)
     return p
 
 
 def _observations(args):
+    """The run's observations, its format, the term naming and the mount."""
+    from ..io.load import detect_format, load_run
+
     if args.mount == "xy":
-        if args.format != "tpoint" or args.azimuth != "N-E":
+        if args.format not in (None, "xy") or args.azimuth != "N-E":
             raise ValueError(
                 "--format and --azimuth apply to alt-az runs; --mount xy reads the X-Y text format (L B L0 B0, degrees)"
             )
-        return read_xy_run(args.data), "xy", "tpoint"
-    if args.format == "gpoint":
+        return load_run(args.data, "xy").observations, "xy", "tpoint", "xy"
+    fmt = args.format or detect_format(args.data)
+    if fmt == "xy":
+        if args.mount == "altaz":
+            raise ValueError(f"{args.data}: an X-Y run (L B L0 B0); compare it with --mount xy")
+        if args.azimuth != "N-E":
+            raise ValueError("--azimuth applies to alt-az runs; an X-Y run counts its own angles (L B L0 B0, degrees)")
+        return load_run(args.data, "xy").observations, "xy", "tpoint", "xy"
+    if fmt not in COMPARE_FORMATS:
+        raise ValueError(f"{args.data}: a {fmt} run; pointax compare reads {', '.join(COMPARE_FORMATS)} runs")
+    if fmt == "gpoint":
         if args.azimuth != "N-E":
             raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
-        return read_gpoint(args.data).observations, "gpoint", "gpoint"
-    return read_tpoint(args.data, azimuth=args.azimuth).observations, "tpoint", "tpoint"
+        return load_run(args.data, "gpoint").observations, "gpoint", "gpoint", "altaz"
+    return load_run(args.data, "tpoint", azimuth=args.azimuth).observations, "tpoint", "tpoint", "altaz"
 
 
-def _comparison(args) -> tuple[Comparison, str]:
-    obs, fmt, naming = _observations(args)
-    families = parse_families(args.families, args.family, args.mount, naming)
+def _comparison(args):
+    """The comparison, the run's format and the mount."""
+    obs, fmt, naming, mount = _observations(args)
+    families = parse_families(args.families, args.family, mount, naming)
     if args.holdout is not None:
         scheme = {"holdout": args.holdout}
     else:
@@ -248,6 +199,10 @@ def _comparison(args) -> tuple[Comparison, str]:
         scheme = {"folds": folds} if folds else {}
     if args.max_steps < 1:
         raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
+    from ..analysis import compare
+    from ..compilation_cache import enable_compilation_cache
+
+    enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     result = compare(
         families,
         obs,
@@ -258,25 +213,26 @@ def _comparison(args) -> tuple[Comparison, str]:
         max_steps=args.max_steps,
         **scheme,
     )
-    return result, fmt
+    return result, fmt, mount
 
 
 def run_compare(args) -> int:
     """Run ``pointax compare`` for parsed ``args``; returns the exit status (0 every fit
     converged, 1 some did not, 2 bad input, with the message on standard error)."""
+    missing = missing_input([args.data])
+    if missing:
+        return error(_PREFIX, missing)
     try:
-        result, fmt = _comparison(args)
-    except (TpointFormatError, GpointFormatError, XYFormatError, ValueError, KeyError, TypeError) as err:
-        print(f"pointax compare: error: {err}", file=sys.stderr)
-        return 2
+        result, fmt, mount = _comparison(args)
+    except (ValueError, KeyError, TypeError) as err:  # the readers' errors are ValueErrors
+        return error(_PREFIX, err)
     except OSError as err:
-        print(f"pointax compare: error: {err.filename or args.data}: {err.strerror or err}", file=sys.stderr)
-        return 2
+        return error(_PREFIX, os_error_text(err, args.data))
     if args.json:
         out = {
             "file": args.data,
-            "mount": args.mount,
-            "format": fmt if args.mount == "altaz" else "xy",
+            "mount": mount,
+            "format": fmt,
             **result.to_dict(),
         }
         print(json.dumps(out, indent=2))
@@ -287,8 +243,7 @@ def run_compare(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point (``python -m pointax.compare_cli DATA ...``) until the
-    subcommand is wired into ``pointax``."""
+    """Stand-alone entry point (``python -m pointax.cli.compare DATA ...``)."""
     parser = argparse.ArgumentParser(prog="pointax")
     sub = parser.add_subparsers(dest="command", required=True)
     add_compare_parser(sub)

@@ -1,0 +1,40 @@
+"""Choosing a pointing model: fair comparison of model families and FAUTO-style
+automatic model building.
+
+    pointax/analysis/statistics.py      per-axis RMS (the level-mount paper's eqs 21-23), AIC and BIC
+    pointax/analysis/folds.py           out-of-sample schemes: holdout sets, k-fold cross-validation
+    pointax/analysis/families.py        model families by name (X-Y paper families, TPOINT alt-az sets)
+    pointax/analysis/comparison.py      compare(): families side by side, the paper's Table 3
+    pointax/analysis/model_building.py  build_model(): grow and prune a model term by term (TPOINT's FAUTO)
+
+:func:`compare` and :func:`build_model` are also ``pointax.compare`` and
+``pointax.build_model``.
+"""
+
+from __future__ import annotations
+
+from .comparison import BEFORE, Comparison, FamilyStats, compare
+from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, family_model
+from .folds import fold_indices, holdout_indices
+from .model_building import STEP_TOLERANCE, BuildStep, ModelBuild, build_model
+from .statistics import PER_AXIS, AxisRMS, axis_rms, information_criteria
+
+__all__ = [
+    "ALTAZ_FAMILIES",
+    "ALTAZ_HARMONICS",
+    "BEFORE",
+    "PER_AXIS",
+    "STEP_TOLERANCE",
+    "AxisRMS",
+    "FamilyStats",
+    "Comparison",
+    "BuildStep",
+    "ModelBuild",
+    "compare",
+    "build_model",
+    "family_model",
+    "axis_rms",
+    "information_criteria",
+    "fold_indices",
+    "holdout_indices",
+]

@@ -1,0 +1,198 @@
+"""Traced fits kept on disk between processes, so that a fresh process does not trace
+again what an earlier one traced for the same model structure.
+
+JAX's persistent compilation cache (:mod:`pointax.compilation_cache`) keeps XLA's
+compiled code, but every new process still traces the fit from Python first: 2-3 s
+of the 4-5 s a fresh ``pointax fit`` took with that cache warm. Here the traced
+program is exported (:mod:`jax.export`) and serialised beside that cache; a later process with the same model structure,
+options, data shapes and software loads it and hands it to XLA, whose compiled code the
+compilation cache then supplies.
+
+An entry's key is a hash of the program's name, the pytree structure (terms, mount,
+static configuration) and shapes of its inputs, the fit options, and the versions of
+pointax (the hash of its source files), JAX, jaxlib, equinox, lineax and optimistix: a
+change of any of them writes a new entry, never reads a stale one. Clear the cache with
+:func:`clear` (or delete the folder, ``programs`` inside ``$POINTAX_JAX_CACHE``, by
+default ``~/.cache/pointax/jax/programs``).
+
+Off until :func:`pointax.enable_compilation_cache` turns it on (the ``pointax``
+command does); a program that cannot be exported or stored (say, a term class defined
+inside a function, a result whose structure cannot be rebuilt) runs as an ordinary
+compiled function.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import os
+import re
+import shutil
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import jax
+import numpy as np
+
+__all__ = ["set_directory", "directory", "call", "clear", "STATS"]
+
+STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0}
+"""How programs were obtained in this process (for tests and benchmarks)."""
+
+_DIRECTORY: Path | None = None
+_MEMORY: dict = {}
+_LOCK = threading.Lock()
+_FORMAT = 1
+
+
+def set_directory(path: str | os.PathLike | None) -> None:
+    """Keep programs in ``path`` (None: in memory only, the default)."""
+    global _DIRECTORY
+    _DIRECTORY = None if path is None else Path(path)
+
+
+def directory() -> Path | None:
+    """Where programs are kept, or None."""
+    return _DIRECTORY
+
+
+def clear(path: str | os.PathLike | None = None) -> None:
+    """Delete every stored program (in ``path``, default :func:`directory`) and forget
+    those loaded in this process."""
+    with _LOCK:
+        _MEMORY.clear()
+    target = Path(path) if path is not None else _DIRECTORY
+    if target is not None and target.is_dir():
+        shutil.rmtree(target)
+
+
+def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> object:
+    """``fn(*args, static)`` through an exported program.
+
+    Args:
+        name: the program's name (part of the key).
+        fn: the function, pure JAX.
+        args: its array arguments, a pytree.
+        static: its last argument, hashable with a stable ``repr`` (part of the key).
+        structure: ``structure(*args, static)``, the pytree structure of ``fn``'s result
+            built without tracing (a pytree structure cannot be stored: an equinox
+            module's does not survive pickling); checked against the traced one before a
+            program is stored.
+
+    Falls back to an ordinary ``jax.jit`` when the program cannot be exported.
+    """
+    leaves, in_tree = jax.tree.flatten(args)
+    avals = [jax.ShapeDtypeStruct(np.shape(x), _dtype(x)) for x in leaves]
+    key = _key(name, in_tree, avals, static)
+    with _LOCK:
+        entry = _MEMORY.get(key)
+    if entry is None:
+        expected = structure(*args, static)
+        entry = _load(key, expected) or _export(key, fn, in_tree, avals, static, expected)
+        with _LOCK:
+            _MEMORY[key] = entry
+    else:
+        STATS["memory"] += 1
+    jitted, out_tree = entry
+    out = jitted(*leaves)
+    return jax.tree.unflatten(out_tree[-1], out)
+
+
+def _dtype(x):
+    return x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype
+
+
+def _key(name, in_tree, avals, static) -> str:
+    parts = [str(_FORMAT), name, _versions(), str(in_tree), repr(static), str(jax.config.jax_enable_x64)]
+    parts += [f"{a.shape}{a.dtype}" for a in avals]
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+_VERSIONS: list = []
+
+
+def _versions() -> str:
+    if not _VERSIONS:
+        source = hashlib.sha256()
+        root = Path(__file__).resolve().parent.parent
+        for path in sorted(root.rglob("*.py")):
+            source.update(path.relative_to(root).as_posix().encode())
+            source.update(path.read_bytes())
+        versions = []
+        for package in ("jax", "jaxlib", "equinox", "lineax", "optimistix"):
+            try:
+                versions.append(f"{package}={importlib.metadata.version(package)}")
+            except importlib.metadata.PackageNotFoundError:
+                versions.append(f"{package}=?")
+        _VERSIONS.append(" ".join(versions) + " pointax-source=" + source.hexdigest())
+    return _VERSIONS[0]
+
+
+def _path(key: str) -> Path | None:
+    return None if _DIRECTORY is None else _DIRECTORY / f"{key}.program"
+
+
+def _load(key: str, out_tree):
+    path = _path(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        exported = jax.export.deserialize(bytearray(path.read_bytes()))
+    except Exception:  # unreadable or from an incompatible writer: export again
+        return None
+    if len(exported.out_avals) != out_tree.num_leaves:
+        return None
+    STATS["loaded"] += 1
+    return jax.jit(exported.call), [out_tree]
+
+
+def _export(key: str, fn: Callable, in_tree, avals, static, expected):
+    out_tree = []
+
+    def flat(*leaves):
+        out = fn(*jax.tree.unflatten(in_tree, leaves), static)
+        out_leaves, treedef = jax.tree.flatten(out)
+        out_tree.append(treedef)
+        return tuple(out_leaves)
+
+    exported = None
+    allowed: set[str] = set()
+    # The program's library calls (LAPACK) have no cross-version guarantee, which the key
+    # makes unnecessary: an entry is only read by the same JAX and jaxlib.
+    for _ in range(8):
+        checks = [jax.export.DisabledSafetyCheck.custom_call(n) for n in sorted(allowed)]
+        try:
+            exported = jax.export.export(jax.jit(flat), disabled_checks=checks)(*avals)
+            break
+        except ValueError as err:
+            new = set(re.findall(r"custom_call @(\w+)", str(err))) - allowed
+            if not new:
+                break
+            allowed |= new
+        except Exception:
+            break
+    if exported is None or not out_tree:
+        # Not exportable: an ordinary compiled function (traced once per process; its
+        # first call records the result's structure).
+        out_tree.clear()
+        return jax.jit(flat), out_tree
+    STATS["exported"] += 1
+    if out_tree[-1] == expected:
+        _store(key, exported)
+    return jax.jit(exported.call), out_tree
+
+
+def _store(key: str, exported) -> None:
+    path = _path(key)
+    if path is None:
+        return
+    try:
+        blob = bytes(exported.serialize())
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(blob)
+        os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing
+    except Exception:  # not serialisable, a full disk: keep it in memory only
+        return
+    STATS["stored"] += 1

@@ -1,0 +1,342 @@
+"""The three kinds of PAINT JSON file: heliostat properties (:func:`read_heliostat`), one
+calibration sample (:func:`read_calibration`) and the tower's target planes
+(:func:`read_tower`). See :mod:`pointax.io.paint`."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .document import (
+    CALIBRATION_SUFFIX,
+    FOCAL_SPOT_METHODS,
+    POWER_PLANT_KEY,
+    JsonDocument,
+    PaintFormatError,
+    describe_value,
+    frozen_array,
+)
+from .geometry import sun_enu_from_paint
+
+__all__ = [
+    "LinearActuator",
+    "HeliostatProperties",
+    "read_heliostat",
+    "CalibrationSample",
+    "read_calibration",
+    "TargetPlane",
+    "Tower",
+    "read_tower",
+]
+
+# --------------------------------------------------------------------------- heliostat
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class LinearActuator:
+    """One linear actuator of a PAINT heliostat axis (see DESIGN, "Heliostat kinematics").
+
+    Stroke ``s = motor / increment + initial_stroke_length``; the actuator angle is
+    ``phi(s) = arccos((offset^2 + pivot_radius^2 - s^2) / (2 offset pivot_radius))``;
+    the joint angle is ``initial_angle +/- (phi(s0) - phi(s))`` (``+`` when
+    ``clockwise``), ``s0`` the stroke at motor position 0.
+    """
+
+    increment: float
+    """Motor increments per metre of stroke (1/m)."""
+    initial_stroke_length: float
+    """Stroke at motor position 0 (m)."""
+    offset: float
+    """Distance from the axis to the actuator's fixed end (m)."""
+    pivot_radius: float
+    """Distance from the axis to the actuator's moving end (m)."""
+    initial_angle: float
+    """Joint angle at motor position 0 (rad)."""
+    clockwise: bool
+    """The file's ``clockwise_axis_movement`` (0/1)."""
+    min_increment: float
+    """Lowest allowed motor position (increments)."""
+    max_increment: float
+    """Highest allowed motor position (increments)."""
+    min_movement_angle: float
+    """Lower joint-angle limit (rad)."""
+    max_movement_angle: float
+    """Upper joint-angle limit (rad)."""
+    offset_shift: float = 0.0
+    """Kept as given (m); 0 in the PAINT files seen."""
+    radius_shift: float = 0.0
+    """Kept as given (m); 0 in the PAINT files seen."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class HeliostatProperties:
+    """A PAINT ``heliostat-properties.json``."""
+
+    path: str
+    position: np.ndarray
+    """``(3,)`` WGS84 latitude (deg), longitude (deg), height (m) of the heliostat."""
+    width: float
+    """Mirror width (m)."""
+    height: float
+    """Mirror height (m)."""
+    initial_orientation: np.ndarray
+    """``(3,)`` mirror normal at zero joint angles, ENU (PAINT: ``(0, -1, 0)``)."""
+    actuators: tuple[LinearActuator, LinearActuator]
+    """Axis 1 and axis 2 actuators."""
+    joint_translations: np.ndarray
+    """``(2, 3)`` ENU translations (m) of joints 1 and 2 (``joint_translation_{e,n,u}_{1,2}``)."""
+    concentrator_translation: np.ndarray
+    """``(3,)`` ENU translation (m) of the mirror centre after both joints
+    (``concentrator_translation_{e,n,u}``); it turns with the mirror."""
+    renovation: str | None = None
+    """Date of the last renovation as written (e.g. ``"2021-04-15"``), if given."""
+
+    @property
+    def lat_deg(self) -> float:
+        return float(self.position[0])
+
+    @property
+    def lon_deg(self) -> float:
+        return float(self.position[1])
+
+    @property
+    def height_m(self) -> float:
+        return float(self.position[2])
+
+
+_ACTUATOR_NUMBERS = (
+    "increment",
+    "initial_stroke_length",
+    "offset",
+    "pivot_radius",
+    "initial_angle",
+    "min_increment",
+    "max_increment",
+    "min_movement_angle",
+    "max_movement_angle",
+)
+_POSITIVE = {"increment", "offset", "pivot_radius"}
+
+
+def _actuator(doc: JsonDocument, value: Any, field: str) -> LinearActuator:
+    a = doc.obj(value, field)
+    kind = doc.string(a, "type_axis", field)
+    if kind != "linear":
+        doc.fail(doc.join(field, "type_axis"), f"is {kind!r}: only linear actuators are supported")
+    v = {k: doc.number(a, k, field, positive=k in _POSITIVE) for k in _ACTUATOR_NUMBERS}
+    cw, cw_field = doc.get(a, "clockwise_axis_movement", field)
+    if isinstance(cw, bool):
+        clockwise = cw
+    elif isinstance(cw, (int, float)) and cw in (0, 1):
+        clockwise = bool(cw)
+    else:
+        doc.fail(cw_field, f"is {describe_value(cw)}, expected 0, 1, true or false")
+    if v["min_increment"] > v["max_increment"]:
+        doc.fail(doc.join(field, "max_increment"), f"{v['max_increment']} is below min_increment {v['min_increment']}")
+    if v["min_movement_angle"] > v["max_movement_angle"]:
+        doc.fail(
+            doc.join(field, "max_movement_angle"),
+            f"{v['max_movement_angle']} is below min_movement_angle {v['min_movement_angle']}",
+        )
+    shifts = {k: doc.number(a, k, field) if k in a else 0.0 for k in ("offset_shift", "radius_shift")}
+    return LinearActuator(clockwise=clockwise, **v, **shifts)
+
+
+def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
+    """Read a PAINT ``heliostat-properties.json``.
+
+    Checks types and finiteness of every field used, that there are exactly two
+    actuators, both ``"linear"``, with positive ``increment``, ``offset`` and
+    ``pivot_radius``. Facet properties are not read.
+
+    Raises:
+        FileNotFoundError: no such file.
+        PaintFormatError: naming file, field and line of the first bad field.
+    """
+    doc = JsonDocument(path)
+    root = doc.obj(doc.data, "")
+    value, field = doc.get(root, "heliostat_position")
+    position = doc.geodetic(value, field)
+    width = doc.number(root, "width", positive=True)
+    height = doc.number(root, "height", positive=True)
+    orientation = doc.vector(root, "initial_orientation")
+    if not np.linalg.norm(orientation) > 0:
+        doc.fail("initial_orientation", "is the zero vector")
+    value, kin_field = doc.get(root, "kinematics_properties")
+    kin = doc.obj(value, kin_field)
+    value, field = doc.get(kin, "actuators", kin_field)
+    if not isinstance(value, list) or len(value) != 2:
+        doc.fail(field, f"is {describe_value(value)}, expected an array of exactly 2 actuators (axis 1, axis 2)")
+    actuators = tuple(_actuator(doc, a, doc.join(field, k)) for k, a in enumerate(value))
+    joints = frozen_array(
+        [[doc.number(kin, f"joint_translation_{c}_{j}", kin_field) for c in "enu"] for j in (1, 2)]
+    )
+    concentrator = frozen_array([doc.number(kin, f"concentrator_translation_{c}", kin_field) for c in "enu"])
+    renovation = doc.string(root, "renovation") if "renovation" in root else None
+    return HeliostatProperties(
+        path=doc.path,
+        position=position,
+        width=width,
+        height=height,
+        initial_orientation=orientation,
+        actuators=actuators,
+        joint_translations=joints,
+        concentrator_translation=concentrator,
+        renovation=renovation,
+    )
+
+
+# --------------------------------------------------------------------------- calibration samples
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CalibrationSample:
+    """A PAINT ``<id>-calibration-properties.json``."""
+
+    path: str
+    sample_id: str
+    """The file name before ``-calibration-properties.json``."""
+    motor: np.ndarray
+    """``(2,)`` axis-1 and axis-2 motor positions (actuator increments)."""
+    sun_azimuth_deg: float
+    """Sun azimuth as stored: degrees, South = 0, East positive."""
+    sun_elevation_deg: float
+    """Sun elevation, degrees."""
+    focal_spot: dict[str, np.ndarray]
+    """Method (``"HeliOS"``, ``"UTIS"``) -> ``(3,)`` WGS84 lat (deg), lon (deg), height (m)
+    of the measured focal-spot centroid, for the methods present (not null)."""
+    target_name: str
+    """The target plane hit (a key of :func:`read_tower`)."""
+
+    @property
+    def sun_enu(self) -> np.ndarray:
+        """``(3,)`` unit vector towards the sun, ENU."""
+        return sun_enu_from_paint(self.sun_azimuth_deg, self.sun_elevation_deg)
+
+
+def read_calibration(path: str | os.PathLike) -> CalibrationSample:
+    """Read one PAINT ``<id>-calibration-properties.json``.
+
+    ``focal_spot`` must hold at least one of the methods in :data:`FOCAL_SPOT_METHODS`
+    (a method given as ``null`` counts as absent; other methods are kept as read).
+
+    Raises:
+        FileNotFoundError: no such file.
+        PaintFormatError: naming file, field and line of the first bad field.
+    """
+    doc = JsonDocument(path)
+    name = Path(doc.path).name
+    sample_id = name[: -len(CALIBRATION_SUFFIX)] if name.endswith(CALIBRATION_SUFFIX) else Path(doc.path).stem
+    root = doc.obj(doc.data, "")
+    value, mp_field = doc.get(root, "motor_position")
+    mp = doc.obj(value, mp_field)
+    motor = frozen_array([doc.number(mp, f"axis_{k}_motor_position", mp_field) for k in (1, 2)])
+    azimuth = doc.number(root, "sun_azimuth")
+    elevation = doc.number(root, "sun_elevation")
+    if not -90.0 <= elevation <= 90.0:
+        doc.fail("sun_elevation", f"is {elevation}, outside -90..90 deg")
+    value, fs_field = doc.get(root, "focal_spot")
+    spots = doc.obj(value, fs_field)
+    focal_spot = {k: doc.geodetic(v, doc.join(fs_field, k)) for k, v in spots.items() if v is not None}
+    if not any(m in focal_spot for m in FOCAL_SPOT_METHODS):
+        doc.fail(fs_field, f"has none of the methods {', '.join(FOCAL_SPOT_METHODS)}")
+    target = doc.string(root, "target_name")
+    return CalibrationSample(
+        path=doc.path,
+        sample_id=sample_id,
+        motor=motor,
+        sun_azimuth_deg=azimuth,
+        sun_elevation_deg=elevation,
+        focal_spot=focal_spot,
+        target_name=target,
+    )
+
+
+# --------------------------------------------------------------------------- tower
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TargetPlane:
+    """A target area of the tower (``type`` "planar", or e.g. the "convex_cylinder"
+    receiver); positions are WGS84 ``(3,)`` lat (deg), lon (deg), height (m)."""
+
+    name: str
+    type: str
+    center: np.ndarray
+    """``(3,)`` centre of the area, WGS84."""
+    corners: dict[str, np.ndarray]
+    """The other named points of ``coordinates`` (``upper_left``, ...), WGS84."""
+    normal_vector: np.ndarray
+    """``(3,)`` normal of the area, ENU (as written; not normalised)."""
+    extra: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """Other properties as written (e.g. ``radius``, ``opening_angle`` of a receiver)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Tower(Mapping):
+    """A PAINT ``tower-measurements.json``: a read-only mapping name -> :class:`TargetPlane`,
+    plus the power plant's properties."""
+
+    path: str
+    plant_id: str
+    """``power_plant_properties.ID``."""
+    plant_position: np.ndarray
+    """``(3,)`` ``power_plant_properties.coordinates``: WGS84 lat (deg), lon (deg), height (m)."""
+    targets: dict[str, TargetPlane]
+
+    def __getitem__(self, name: str) -> TargetPlane:
+        return self.targets[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.targets)
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+
+def read_tower(path: str | os.PathLike) -> Tower:
+    """Read a PAINT ``tower-measurements.json``.
+
+    Every top-level key other than ``power_plant_properties`` is a target area with
+    ``type``, ``normal_vector`` and ``coordinates`` (which must hold ``center``).
+
+    Returns:
+        A :class:`Tower`: use it as ``dict[str, TargetPlane]``; ``plant_id`` and
+        ``plant_position`` keep ``power_plant_properties``.
+
+    Raises:
+        FileNotFoundError: no such file.
+        PaintFormatError: naming file, field and line of the first bad field.
+    """
+    doc = JsonDocument(path)
+    root = doc.obj(doc.data, "")
+    value, pp_field = doc.get(root, POWER_PLANT_KEY)
+    pp = doc.obj(value, pp_field)
+    plant_id = doc.string(pp, "ID", pp_field)
+    value, field = doc.get(pp, "coordinates", pp_field)
+    plant_position = doc.geodetic(value, field)
+    targets = {}
+    for name, value in root.items():
+        if name == POWER_PLANT_KEY:
+            continue
+        t = doc.obj(value, name)
+        kind = doc.string(t, "type", name)
+        normal = doc.vector(t, "normal_vector", name)
+        if not np.linalg.norm(normal) > 0:
+            doc.fail(doc.join(name, "normal_vector"), "is the zero vector")
+        value, c_field = doc.get(t, "coordinates", name)
+        coords = doc.obj(value, c_field)
+        center, field = doc.get(coords, "center", c_field)
+        center = doc.geodetic(center, field)
+        corners = {k: doc.geodetic(v, doc.join(c_field, k)) for k, v in coords.items() if k != "center"}
+        extra = {k: v for k, v in t.items() if k not in ("type", "normal_vector", "coordinates")}
+        targets[name] = TargetPlane(name, kind, center, corners, normal, extra)
+    if not targets:
+        raise PaintFormatError(doc.path, None, "no target areas (only power_plant_properties)")
+    return Tower(doc.path, plant_id, plant_position, targets)
+

@@ -1,0 +1,71 @@
+"""Structural guards of the batched fit's paths (counted, never timed): clean sites of the
+library's models stay on the fast fixed-step pass; sites left to the full loop are fitted
+one by one and equal their solo fits; the compile options per model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pointax as px
+from pointax import batch
+from pointax.simulate import encoder_grid
+
+TPOINT = "IA IE NPAE CA AN AW TF TX"
+
+
+def _sites(truth, n_sites, noise, encoder):
+    return [px.simulate(truth, encoder, noise=noise, seed=k) for k in range(n_sites)]
+
+
+def _tpoint_truth(form):
+    return px.AltAz(px.terms.tpoint(TPOINT), residual_form=form).set(
+        IA=px.arcsec(120), IE=px.arcsec(-30), CA=px.arcsec(20), AN=px.arcsec(8), AW=px.arcsec(-12), TF=px.arcsec(15)
+    )
+
+
+CASES = {
+    "tpoint terms, sky form": (lambda: _tpoint_truth("sky"), lambda: encoder_grid(6, (20, 40, 60, 80))),
+    "tpoint terms, tpoint form": (lambda: _tpoint_truth("tpoint"), lambda: encoder_grid(6, (20, 40, 60, 80))),
+    "turntable": (
+        lambda: px.Turntable("full").set(mu0=px.deg(0.07), nu0=px.deg(0.01), omega0=px.deg(-0.09), alpha0=px.deg(0.3), beta0=px.deg(-0.2)),
+        lambda: np.stack(np.meshgrid(np.radians(np.arange(0, 360, 30)), np.radians([15, 35, 55, 75])), -1).reshape(-1, 2),
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_clean_sites_of_library_models_stay_on_the_fast_path(name, monkeypatch):
+    truth_fn, enc_fn = CASES[name]
+    truth, encoder = truth_fn(), enc_fn()
+    sites = _sites(truth, 6, px.arcsec(1.0), encoder)
+    start = truth.with_values(np.zeros(len(truth.parameters)))
+    calls = []
+    real = batch._fit_sites
+    monkeypatch.setattr(batch, "_fit_sites", lambda *a, **k: calls.append(1) or real(*a, **k))
+    result = px.fit_batch(start, px.stack_observations(sites))
+    assert np.all(np.asarray(result.converged))
+    assert calls == []  # no site went to the full loop
+    steps = 1 if batch.is_affine(start) else batch.DEFAULT_STEPS
+    assert np.all(np.asarray(result.iterations) == steps)
+
+
+def test_sites_left_to_the_full_loop_equal_their_solo_fits():
+    """A rigorous model with a wobble-like nonlinearity: with steps=1 no site converges
+    on the fast pass, so all go one by one through the full loop (lax.map), which is the
+    solo fit's code: equal values (to rounding)."""
+    truth = px.AltAz(px.terms.tpoint("IA IE CA", form="rigorous")).set(IA=px.arcsec(900), IE=px.arcsec(-400), CA=px.arcsec(300))
+    sites = _sites(truth, 3, px.arcsec(1.0), encoder_grid(6, (20, 40, 60, 80)))
+    start = truth.with_values(np.zeros(3))
+    result = px.fit_batch(start, px.stack_observations(sites), steps=1)
+    assert np.all(np.asarray(result.iterations) > 1)
+    for k, obs in enumerate(sites):
+        solo = px.fit(start, obs)
+        np.testing.assert_allclose(np.asarray(result.values[k]), np.asarray(solo.values), rtol=0, atol=1e-14)
+
+
+def test_fast_compile_options_per_model():
+    assert batch.uses_fast_compile_options(px.Turntable("full"))
+    assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE"), residual_form="tpoint"))
+    assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE", form="rigorous")))
+    assert not batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE")))
