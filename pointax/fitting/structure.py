@@ -3,15 +3,18 @@
 A pointing engineer changes the model all the time (TPOINT's USE, LOSE, FIX): each
 change gives a model of another pytree structure, and a compiled fit is specialised to
 its structure, so each would trace and compile the fit again (5-14 s). Here a model is
-*embedded* in a larger one, the union of every term seen so far for the same mount
-and residual form: the terms the model lacks are present at their neutral values
+*embedded* in a larger one, a union of the terms seen for the same mount and residual
+form: the terms the model lacks are present at their neutral values
 (every parameter 0, which must leave the pointing unchanged: checked per term class)
 and held fixed, and which parameters are free is a boolean array. Models of the same
 family then share one structure, and so one compiled fit.
 
-The union grows when a model brings a term it lacks (that compiles once more); it
-keeps the terms in the order the models give them (rotations in a chain do not
-commute), and a term that is not neutral at 0 is never carried by a model that lacks it.
+A model takes the smallest of its family's unions that holds its terms; when none
+does, the most recent union grows by the model's new terms (that compiles once more),
+or, when it would carry more than :data:`MAX_EXTRA_TERMS` absent terms, the model gets a
+union of its own. Unions keep the terms in the order the models give them (rotations in
+a chain do not commute), and a term that is not neutral at 0 is never carried by a
+model that lacks it.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ __all__ = ["Embedding", "embed", "is_neutral", "clear"]
 _PROBE_ANGLES = np.array([[0.3, 0.4], [2.1, 1.1], [-1.7, 0.2], [4.0, -0.6]])
 _HOOKS = ("encoder_offset", "base_rotation", "axes_rotation", "boresight_rotation", "sky_offset")
 
-_UNIONS: dict = {}
+_UNIONS: dict = {}  # family -> list of unions (tuples of terms), most recent first
 _LOCK = threading.Lock()
 
 
@@ -73,8 +76,9 @@ def _set(term, field, value):
 
 
 def is_neutral(term: Term) -> bool:
-    """Whether ``term`` with every parameter 0 leaves the pointing unchanged: each hook
-    returns None, a zero offset or the identity rotation at a few probe angles."""
+    """Whether ``term`` with every parameter 0 leaves the pointing unchanged: as its class
+    declares (:attr:`pointax.Term.neutral_at_zero`), else when each hook returns None, a
+    zero offset or the identity rotation at a few probe angles."""
     _probe([term])
     return _NEUTRAL[_class_key(term)]
 
@@ -93,11 +97,22 @@ def _probe(terms) -> None:
     new = {}
     for t in terms:
         key = _class_key(t)
-        if key not in _NEUTRAL and key not in new:
-            new[key] = _zeroed(t)
-    if not new:
-        return
-    zeroed = list(new.values())
+        if key in _NEUTRAL or key in new:
+            continue
+        if t.neutral_at_zero is not None:  # declared (the library's are tested)
+            _NEUTRAL[key] = bool(t.neutral_at_zero)
+        else:
+            new[key] = t
+    for key, neutral in zip(new, _probe_values(list(new.values()))):
+        _NEUTRAL[key] = neutral
+
+
+def _probe_values(terms) -> list[bool]:
+    """Whether each of ``terms`` (taken at every parameter 0) is neutral, computed at the
+    probe angles in one compiled call."""
+    if not terms:
+        return []
+    zeroed = [_zeroed(t) for t in terms]
 
     def outputs(a):
         return [[getattr(t, h)(a) for h in _HOOKS] for t in zeroed]
@@ -106,9 +121,8 @@ def _probe(terms) -> None:
         with jax.enable_x64(True):
             got = jax.jit(jax.vmap(outputs))(jnp.asarray(_PROBE_ANGLES))
     except Exception:  # a term that cannot be evaluated at the probe angles: not neutral
-        got = None
-    for k, key in enumerate(new):
-        _NEUTRAL[key] = got is not None and all(_is_nothing(out) for out in got[k])
+        return [False] * len(terms)
+    return [all(_is_nothing(out) for out in got[k]) for k in range(len(terms))]
 
 
 def _is_nothing(out) -> bool:
@@ -126,6 +140,7 @@ def _merge(union: tuple[Term, ...], terms: tuple[Term, ...]) -> tuple[Term, ...]
     their names is dropped: names are unique in a model)."""
     ids = {_identity(t) for t in terms}
     names = {t.name for t in terms}
+    _probe(union)
     out = list(terms)
     previous = None
     for t in union:
@@ -146,19 +161,45 @@ def _is_subsequence(small: list, big: list) -> bool:
     return all(any(x == y for y in it) for x in small)
 
 
-def embed(model: Model) -> Embedding:
-    """Embed ``model`` in its family's union, growing the union if it must."""
-    key = _family(model)
+MAX_EXTRA_TERMS = 16
+"""A union carries at most this many terms beyond the model's own: past it, a model
+gets a union of its own (one compilation) rather than paying for many absent terms in
+every fit."""
+
+MAX_UNIONS = 4
+"""Unions kept per family (mount and residual form), the most recently used first."""
+
+
+def _fits(union: tuple[Term, ...], model: Model) -> bool:
+    """Whether ``model`` can be embedded in ``union`` as it is."""
     ids = [_identity(t) for t in model.terms]
+    if not _is_subsequence(ids, [_identity(t) for t in union]):
+        return False
+    own, names = set(ids), {t.name for t in model.terms}
+    extras = [t for t in union if _identity(t) not in own]
+    if len(extras) > MAX_EXTRA_TERMS or any(t.name in names for t in extras):
+        return False
+    if extras:
+        _probe(union)  # every term at once (one compilation), only once terms are absent
+    return all(is_neutral(t) for t in extras)
+
+
+def embed(model: Model) -> Embedding:
+    """Embed ``model`` in the smallest of its family's unions that holds its terms, or
+    in a new one: the most recent grown by the model's terms (a new structure: it
+    compiles once; the unions it grew from stay, up to :data:`MAX_UNIONS`)."""
+    key = _family(model)
     with _LOCK:
-        union = _UNIONS.get(key, ())
-        _probe(model.terms)  # with the first fit, which compiles anyway
-        union_ids = [_identity(t) for t in union]
-        own, names = set(ids), {t.name for t in model.terms}
-        extras_ok = all(t.name not in names and is_neutral(t) for t in union if _identity(t) not in own)
-        if not (_is_subsequence(ids, union_ids) and extras_ok):
-            union = _merge(union, model.terms)
-            _UNIONS[key] = union
+        unions = _UNIONS.setdefault(key, [])
+        holding = [u for u in unions if _fits(u, model)]
+        if holding:
+            union = min(holding, key=len)
+            unions.remove(union)
+        else:
+            grown = _merge(unions[0], model.terms) if unions else tuple(model.terms)
+            union = grown if len(grown) - len(model.terms) <= MAX_EXTRA_TERMS else tuple(model.terms)
+        unions.insert(0, union)
+        del unions[MAX_UNIONS:]
     mine = {_identity(t): t for t in model.terms}
     terms = tuple(mine.get(_identity(t)) or _zeroed(t) for t in union)
     # The union's own Model: no fixed names (the mask says what is free).

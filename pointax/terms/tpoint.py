@@ -80,6 +80,8 @@ class LinearTerm(Term):
 
     coef: float = param(0.0)
     linear_sky_offset: ClassVar[bool] = True
+    linear_by_construction: ClassVar[bool] = True
+    neutral_at_zero: ClassVar[bool | None] = True
 
     def basis(self, p: SkyPoint) -> tuple:
         """(dA, dE) per radian of coefficient at ``p`` (its angles and their sines and
