@@ -12,13 +12,11 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
-from .mounts import AltAzMount, Mount, SphericalMount, TurntableMount
+from .mounts import Mount, SphericalMount
 from .observations import Observations
-from .terms import turntable as turntable_terms
 from .terms.base import Term, check_linear_claim, param_fields, param_unit
-from .terms.sun_vector import estimate_zeros
 
-__all__ = ["Model", "ParameterInfo", "AltAz", "Turntable", "RESIDUAL_FORMS"]
+__all__ = ["Model", "ParameterInfo", "RESIDUAL_FORMS"]
 
 RESIDUAL_FORMS = ("sky", "tpoint")
 """What a fit minimises (:attr:`Model.residual_form`)."""
@@ -298,52 +296,3 @@ class Model(eqx.Module):
         """One line naming the mount and terms."""
         names = " ".join(t.name for t in self.terms) or "(no terms)"
         return f"{type(self.mount).__name__}({getattr(self.mount, 'convention', '') or ''}): {names}"
-
-
-def AltAz(
-    terms: Sequence[Term] | Iterable[Term] = (),
-    azimuth: str = "N-E",
-    fixed: Iterable[str] = (),
-    residual_form: str = "sky",
-) -> Model:
-    """An alt-az telescope model: :class:`AltAzMount` with ``terms``.
-
-    Args:
-        terms: error terms, e.g. ``pointax.terms.tpoint("IA IE NPAE CA AN AW TF TX")``.
-        azimuth: how the encoders count azimuth ('N-E', 'S-E' or 'S-W'; see
-            :class:`pointax.AltAzMount`). Use the convention of your data
-            (``run.azimuth`` for a run read by :func:`pointax.io.read_tpoint`).
-        fixed: names of parameters held fixed in fits.
-        residual_form: 'sky' (exact, default) or 'tpoint' (TPOINT's own residuals:
-            see :class:`Model`).
-    """
-    return Model(AltAzMount(azimuth=azimuth), terms, fixed, residual_form=residual_form)
-
-
-
-def Turntable(
-    terms: str | Sequence[str] | Sequence[Term] = "full",
-    fixed: Iterable[str] = (),
-    start: Observations | None = None,
-) -> Model:
-    """A sun-tracking mirror turntable model: :class:`TurntableMount` with ``terms``.
-
-    Args:
-        terms: 'full' (the paper's five parameters), 'simple' (alpha0, beta0), names
-            (see :func:`pointax.terms.turntable`) or a sequence of :class:`Term`.
-        fixed: names of parameters held fixed in fits.
-        start: observations to take starting values of the encoder zeros from
-            (:func:`pointax.terms.sun_vector.estimate_zeros`); the zeros may be far from
-            0 and a least-squares fit needs a start within a few degrees.
-    """
-    terms = terms if isinstance(terms, str) else tuple(terms)
-    if isinstance(terms, str) or all(isinstance(t, str) for t in terms):
-        terms = turntable_terms(terms)
-    model = Model(TurntableMount(), terms, fixed)
-    if start is not None:
-        use = np.asarray(start.weight) > 0  # rows with weight 0 may hold NaN
-        alpha0, beta0 = estimate_zeros(np.asarray(start.encoder)[use], np.asarray(start.target)[use])
-        names = set(model.parameter_names)
-        zeros = {k: v for k, v in (("alpha0", alpha0), ("beta0", beta0)) if k in names}
-        model = model.set(**zeros)
-    return model

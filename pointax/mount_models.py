@@ -1,8 +1,12 @@
-"""Model factories for X-Y and equatorial mounts, and the level-mount paper's families.
+"""Model factories: a mount with its terms, for each kind of mount.
 
-``XY("basic")`` is the paper's basic physical model on an :class:`pointax.XYMount`;
-``xy_family(name)`` gives the terms of each family (:mod:`pointax.terms.xy`);
-``Equatorial(terms, latitude)`` is an :class:`pointax.EquatorialMount` with terms.
+``AltAz(terms, azimuth)`` is an :class:`pointax.AltAzMount` with terms;
+``Turntable("full")`` the sun-vector paper's mirror turntable;
+``XY("basic")`` the level-mount paper's basic physical model on an :class:`pointax.XYMount`,
+``xy_family(name)`` the terms of each of its families (:mod:`pointax.terms.xy`);
+``Equatorial(terms, latitude)`` an :class:`pointax.EquatorialMount` with terms. (A PAINT
+heliostat's model comes with its file: :func:`pointax.heliostat_model`.) The core
+(:mod:`pointax.model`) knows no particular term; these do.
 """
 
 from __future__ import annotations
@@ -13,11 +17,14 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from .model import Model
-from .mounts import EquatorialMount, XYMount
+from .mounts import AltAzMount, EquatorialMount, TurntableMount, XYMount
+from .observations import Observations
+from .terms import turntable as turntable_terms
 from .terms.base import Term
+from .terms.sun_vector import estimate_zeros
 from .terms.xy import FAMILIES
 
-__all__ = ["XY", "Equatorial", "xy_family", "XY_FAMILIES"]
+__all__ = ["AltAz", "Turntable", "XY", "Equatorial", "xy_family", "XY_FAMILIES"]
 
 XY_FAMILIES: tuple[str, ...] = tuple(FAMILIES)
 """Names of the level-mount paper's model families: 'harmonic' (eqs 1-2, 13 + 13
@@ -106,3 +113,52 @@ def Equatorial(
     if latitude is None:
         raise ValueError("Equatorial: give the site's latitude in radians, e.g. latitude=pointax.deg(31.7)")
     return Model(EquatorialMount(latitude), tuple(terms), fixed, residual_form=residual_form)
+
+
+def AltAz(
+    terms: Sequence[Term] | Iterable[Term] = (),
+    azimuth: str = "N-E",
+    fixed: Iterable[str] = (),
+    residual_form: str = "sky",
+) -> Model:
+    """An alt-az telescope model: :class:`AltAzMount` with ``terms``.
+
+    Args:
+        terms: error terms, e.g. ``pointax.terms.tpoint("IA IE NPAE CA AN AW TF TX")``.
+        azimuth: how the encoders count azimuth ('N-E', 'S-E' or 'S-W'; see
+            :class:`pointax.AltAzMount`). Use the convention of your data
+            (``run.azimuth`` for a run read by :func:`pointax.io.read_tpoint`).
+        fixed: names of parameters held fixed in fits.
+        residual_form: 'sky' (exact, default) or 'tpoint' (TPOINT's own residuals:
+            see :class:`Model`).
+    """
+    return Model(AltAzMount(azimuth=azimuth), terms, fixed, residual_form=residual_form)
+
+
+
+def Turntable(
+    terms: str | Sequence[str] | Sequence[Term] = "full",
+    fixed: Iterable[str] = (),
+    start: Observations | None = None,
+) -> Model:
+    """A sun-tracking mirror turntable model: :class:`TurntableMount` with ``terms``.
+
+    Args:
+        terms: 'full' (the paper's five parameters), 'simple' (alpha0, beta0), names
+            (see :func:`pointax.terms.turntable`) or a sequence of :class:`Term`.
+        fixed: names of parameters held fixed in fits.
+        start: observations to take starting values of the encoder zeros from
+            (:func:`pointax.terms.sun_vector.estimate_zeros`); the zeros may be far from
+            0 and a least-squares fit needs a start within a few degrees.
+    """
+    terms = terms if isinstance(terms, str) else tuple(terms)
+    if isinstance(terms, str) or all(isinstance(t, str) for t in terms):
+        terms = turntable_terms(terms)
+    model = Model(TurntableMount(), terms, fixed)
+    if start is not None:
+        use = np.asarray(start.weight) > 0  # rows with weight 0 may hold NaN
+        alpha0, beta0 = estimate_zeros(np.asarray(start.encoder)[use], np.asarray(start.target)[use])
+        names = set(model.parameter_names)
+        zeros = {k: v for k, v in (("alpha0", alpha0), ("beta0", beta0)) if k in names}
+        model = model.set(**zeros)
+    return model

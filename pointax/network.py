@@ -78,7 +78,8 @@ from .heliostat import calibrate_heliostat
 from .io.errors import FileFormatError
 from .io.load import load_run
 from .io.paint import FOCAL_SPOT_METHODS
-from .model import RESIDUAL_FORMS, AltAz, Turntable
+from .model import RESIDUAL_FORMS
+from .mount_models import AltAz, Turntable
 from .mounts import AZIMUTH_CONVENTIONS
 from .terms.heliostat import HELIOSTAT_DEFAULT
 from .terms.sun_vector import TURNTABLE_MODELS, estimate_zeros

@@ -117,7 +117,7 @@ def _command_model(args):
 
     from .. import terms as term_library
     from ..io.tpoint import read_model
-    from ..model import AltAz, Turntable
+    from ..mount_models import AltAz, Turntable
     from ..units import UNITS
 
     if args.mount == "turntable":

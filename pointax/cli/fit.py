@@ -118,7 +118,7 @@ def _fit(args) -> int:
     from ..fitting import fit
     from ..io.load import load_run
     from ..io.tpoint import write_model
-    from ..model import AltAz
+    from ..mount_models import AltAz
 
     if fmt == "gpoint":
         run = load_run(args.data, "gpoint")

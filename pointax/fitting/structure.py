@@ -10,9 +10,9 @@ and held fixed, and which parameters are free is a boolean array. Models of the 
 family then share one structure, and so one compiled fit.
 
 A model takes the smallest of its family's unions that holds its terms; when none
-does, the most recent union grows by the model's new terms (that compiles once more),
-or, when it would carry more than :data:`MAX_EXTRA_TERMS` absent terms, the model gets a
-union of its own. Unions keep the terms in the order the models give them (rotations in
+does, the most recent union grows by the model's new terms (that compiles once more)
+if it holds at least half of them, or else, or when it would carry more than
+:data:`MAX_EXTRA_TERMS` absent terms, the model gets a union of its own. Unions keep the terms in the order the models give them (rotations in
 a chain do not commute), and a term that is not neutral at 0 is never carried by a
 model that lacks it.
 """
@@ -184,6 +184,14 @@ def _fits(union: tuple[Term, ...], model: Model) -> bool:
     return all(is_neutral(t) for t in extras)
 
 
+def _shares_most(union: tuple[Term, ...], model: Model) -> bool:
+    """Whether at least half of ``model``'s terms are in ``union``: a step of the
+    USE / LOSE loop, not another model family (which gets a union of its own rather than
+    making every fit of both compile and run with the other's terms)."""
+    ids = {_identity(t) for t in union}
+    return 2 * sum(_identity(t) in ids for t in model.terms) >= len(model.terms)
+
+
 def embed(model: Model) -> Embedding:
     """Embed ``model`` in the smallest of its family's unions that holds its terms, or
     in a new one: the most recent grown by the model's terms (a new structure: it
@@ -196,8 +204,11 @@ def embed(model: Model) -> Embedding:
             union = min(holding, key=len)
             unions.remove(union)
         else:
-            grown = _merge(unions[0], model.terms) if unions else tuple(model.terms)
-            union = grown if len(grown) - len(model.terms) <= MAX_EXTRA_TERMS else tuple(model.terms)
+            union = tuple(model.terms)
+            if unions and _shares_most(unions[0], model):
+                grown = _merge(unions[0], model.terms)
+                if len(grown) - len(model.terms) <= MAX_EXTRA_TERMS:
+                    union = grown
         unions.insert(0, union)
         del unions[MAX_UNIONS:]
     mine = {_identity(t): t for t in model.terms}

@@ -355,7 +355,7 @@ class TpointModelFile:
                 term's line and what is wrong with the name.
             ValueError: for an unknown ``form``.
         """
-        from ..model import AltAz
+        from ..mount_models import AltAz
         from ..terms import tpoint
 
         tpoint([], form=form)  # an unknown form raises here, not as a term's error
