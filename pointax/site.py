@@ -478,11 +478,13 @@ def _sky_offsets(model: Model, point: SkyPoint):
 
 def _sky_position(model: Model, chain_angles, nominal, trig):
     """:meth:`pointax.Model.sky_position` over a site: the same fixed-point iterations
-    (unrolled), with :func:`_sky_point`'s sines and cosines."""
-    sky = chain_angles
-    for _ in range(model.sky_iterations):
-        sky = chain_angles + _sky_offsets(model, _sky_point(sky, nominal, trig))
-    return sky
+    (a loop, as there: unrolled, they tripled the compilation), with
+    :func:`_sky_point`'s sines and cosines."""
+
+    def step(_, sky):
+        return chain_angles + _sky_offsets(model, _sky_point(sky, nominal, trig))
+
+    return jax.lax.fori_loop(0, model.sky_iterations, step, chain_angles)
 
 
 def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
