@@ -34,7 +34,7 @@ class LazyPackage(types.ModuleType):
 
 
 def lazy_namespace(
-    package: str, exports: Mapping[str, str], submodules: Iterable[str] = ()
+    package: str, exports: Mapping[str, str], submodules: Iterable[str] = (), shadowed: Iterable[str] = ()
 ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for the package ``package``.
 
@@ -43,11 +43,13 @@ def lazy_namespace(
         exports: public name -> the submodule (relative to the package, without a
             leading dot) that defines it.
         submodules: submodules exported as themselves.
+        shadowed: more exported names that a submodule of the same name must not
+            replace (those exported from a module of their own name always are).
     """
     module = sys.modules[package]
     exports = dict(exports)
     submodules = tuple(submodules)
-    module.__dict__["_lazy_shadowed"] = frozenset(name for name, where in exports.items() if where == name)
+    module.__dict__["_lazy_shadowed"] = frozenset(name for name, where in exports.items() if where == name) | set(shadowed)
     module.__class__ = LazyPackage
 
     def __getattr__(name: str):

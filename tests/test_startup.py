@@ -212,3 +212,19 @@ def test_no_library_module_holds_argparse_code():
         if "argparse" in path.read_text() and path.parent.name != "cli"
     ]
     assert holders == []
+
+
+def test_the_core_imports_no_particular_term():
+    """The numerical core (rotations, mounts, model, the term interface) loads no term
+    of the library, no astropy, no file format and no fitting code."""
+    code = (
+        "import sys\n"
+        "import pointax.rotations, pointax.mounts, pointax.model, pointax.terms.base\n"
+        "loaded = sorted(m for m in sys.modules if m.startswith('pointax.'))\n"
+        "allowed = {'pointax._lazy', 'pointax._x64', 'pointax.trig', 'pointax.units', 'pointax.rotations',\n"
+        "           'pointax.mounts', 'pointax.model', 'pointax.observations', 'pointax.terms', 'pointax.terms.base'}\n"
+        "extra = [m for m in loaded if m not in allowed]\n"
+        "assert not extra and 'astropy' not in sys.modules, extra\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
