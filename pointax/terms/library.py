@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from . import camera, rigorous, sun_vector, xy
+from . import _NAMES, camera, rigorous, sun_vector, xy
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
@@ -40,54 +40,7 @@ from .tpoint import (
     LinearTerm,
 )
 
-__all__ = [
-    "Term",
-    "SkyPoint",
-    "param",
-    "param_fields",
-    "param_unit",
-    "LinearTerm",
-    "tpoint",
-    "names",
-    "rigorous",
-    "FORMS",
-    "BASIC_ALTAZ",
-    "IA",
-    "IE",
-    "CA",
-    "NPAE",
-    "AN",
-    "AW",
-    "TF",
-    "TX",
-    "ACEC",
-    "ACES",
-    "ECEC",
-    "ECES",
-    "PAA1",
-    "PEE1",
-    "LINEAR_TERMS",
-    "turntable",
-    "sun_vector",
-    "heliostat",
-    "heliostat_terms",
-    "xy",
-    "camera",
-    "CameraMounting",
-    "Harmonic",
-    "RigorousHarmonic",
-    "harmonic_term",
-    "parse_harmonic",
-    "is_harmonic_name",
-    "harmonic_library",
-    "GpointTerm",
-    "GpointExtra",
-    "GPOINT_ALTAZ_TERMS",
-    "gpoint_extra",
-    "gpoint_terms",
-    "gpoint_names",
-    "gpoint_library",
-]
+__all__ = list(_NAMES)  # listed once, in pointax/terms/__init__.py (read without importing this)
 
 FORMS = {"linear": LINEAR_TERMS, "rigorous": rigorous.RIGOROUS_TERMS}
 """Term form name -> {TPOINT name: term class}."""
