@@ -8,12 +8,10 @@ from collections.abc import Iterable, Sequence
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._x64 import float64
 from .mounts import Mount, SphericalMount
-from .observations import Observations
 from .terms.base import Term, check_linear_claim, param_fields, param_unit
 
 __all__ = ["Model", "ParameterInfo", "RESIDUAL_FORMS"]

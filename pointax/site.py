@@ -28,8 +28,7 @@ root of the normalised weights (checked to 1e-15 rad in ``tests/test_site.py``).
 from __future__ import annotations
 
 import dataclasses
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import equinox as eqx
 import jax
@@ -42,6 +41,16 @@ from .model import Model, ParameterInfo
 from .mounts import SphericalMount
 from .observations import Observations
 from .rotations import azel_trig, wrap_pi
+from .entries import (
+    axis_form,
+    constant_entries,
+    dot,
+    entries,
+    matmul,
+    nominal_entries,
+    turn,
+    value,
+)
 from .terms.base import SkyPoint
 from .trig import sincos
 
@@ -186,147 +195,6 @@ def _unit_offsets(model: Model, point: SkyPoint):
         yield unit[:, 0], unit[:, 1]
 
 
-# ------------------------------------------------------------------ 3x3 algebra on entries
-# A matrix is a 3x3 nested list of entries; an entry is a Python float (a constant known
-# when tracing: zeros and ones are skipped), a scalar array (the same for every
-# observation of the site), an (n,) array, or the negative of an array (_Neg: its sign
-# ends in a subtraction, see _mul). A vector is a list of three such entries;
-# _value turns an entry into an array or float.
-
-
-class _Neg:
-    """``-x`` for an array ``x``, not yet computed."""
-
-    __slots__ = ("x",)
-
-    def __init__(self, x):
-        self.x = x
-
-
-def _value(a):
-    return -a.x if isinstance(a, _Neg) else a
-
-
-def _neg(a):
-    if isinstance(a, _Neg):
-        return a.x
-    return -a if isinstance(a, float) else _Neg(a)
-
-
-def _is_const(x, value: float) -> bool:
-    return isinstance(x, float) and x == value
-
-
-def _mul(a, b):
-    """``a * b`` with constant zeros, ones and minus ones skipped. A sign stays symbolic
-    (``_Neg``) until an addition takes it: a rotation's ``-sin`` computed on its own is a
-    product of the data alone, which XLA moved out of the fit's loop once per Jacobian
-    column, so that the columns no longer shared their common terms (the fit's module
-    was a third larger)."""
-    if _is_const(a, 0.0) or _is_const(b, 0.0):
-        return 0.0
-    if isinstance(a, _Neg) or _is_const(a, -1.0):
-        return _neg(_mul(_neg(a), b))
-    if isinstance(b, _Neg) or _is_const(b, -1.0):
-        return _neg(_mul(a, _neg(b)))
-    if _is_const(a, 1.0):
-        return b
-    if _is_const(b, 1.0):
-        return a
-    return a * b
-
-
-def _add(a, b):
-    if _is_const(a, 0.0):
-        return b
-    if _is_const(b, 0.0):
-        return a
-    if isinstance(b, _Neg):
-        return _neg(a.x + b.x) if isinstance(a, _Neg) else a - b.x
-    if isinstance(a, _Neg):
-        return b - a.x
-    return a + b
-
-
-def _dot(row, v):
-    out = 0.0
-    for a, b in zip(row, v):
-        out = _add(out, _mul(a, b))
-    return out
-
-
-def _turn(matrix, v):
-    return [_dot(row, v) for row in matrix]
-
-
-def _matmul(a, b):
-    return [[_dot(a[i], [b[k][j] for k in range(3)]) for j in range(3)] for i in range(3)]
-
-
-def _entries(matrix: Array) -> list:
-    """A traced ``(..., 3, 3)`` matrix as entries ``matrix[..., i, j]``."""
-    return [[matrix[..., i, j] for j in range(3)] for i in range(3)]
-
-
-def _axis_form(mount, axis: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Constant matrices ``(alpha, beta, gamma)`` with ``mount.<axis>(t) = alpha + beta sin t
-    + gamma cos t`` for every angle ``t`` (true of any rotation about a fixed axis, with any
-    fixed rotation before or after it), or None if the axis is not of that form or cannot
-    be evaluated while tracing (e.g. it depends on traced mount fields).
-
-    Cached per mount class and configuration when the mount has no array fields (its
-    axes can then depend on nothing else): evaluating it costs tenths of a second."""
-    if jax.tree.leaves(mount):
-        return _axis_form_uncached(getattr(mount, axis))
-    return _axis_form_cached(jax.tree.structure(mount), type(mount), axis, mount)
-
-
-_FORMS: dict = {}
-
-
-def _axis_form_cached(treedef, cls, axis, mount):
-    key = (cls, treedef, axis)
-    if key not in _FORMS:
-        _FORMS[key] = _axis_form_uncached(getattr(mount, axis))
-    return _FORMS[key]
-
-
-_FORM_ANGLES = (0.0, math.pi / 2, math.pi, 0.7, 2.3, -1.9)
-
-
-def _axis_form_uncached(axis_fn):
-    # All six angles in one compiled call, run at once even while a fit is traced. Op by
-    # op each operation compiled a kernel of its own (~0.1 s of a fit's first call), and
-    # so did the constants in a call made under jax.ensure_compile_time_eval (~0.2 s).
-    try:
-        traced = jax.jit(jax.vmap(axis_fn)).trace(jax.ShapeDtypeStruct((len(_FORM_ANGLES),), jnp.float64))
-        if len(traced.jaxpr.in_avals) != 1:  # it reads traced values (the mount's fields)
-            return None
-        at = np.asarray(traced.lower().compile()(np.asarray(_FORM_ANGLES, np.float64)), np.float64)
-    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
-        return None
-    r0, r90, r180 = at[0], at[1], at[2]
-    checks = list(zip(_FORM_ANGLES[3:], at[3:]))
-    alpha, gamma = (r0 + r180) / 2, (r0 - r180) / 2
-    beta = r90 - alpha
-    # Entries within rounding of an integer are that integer (sin pi is 1.2e-16, not 0:
-    # beta's 1 came out as 1 - 1.1e-16), so that the fit skips its zeros and ones.
-    alpha, beta, gamma = (np.where(np.abs(m - np.round(m)) < 1e-14, np.round(m), m) for m in (alpha, beta, gamma))
-    for t, r in checks:
-        if not np.allclose(alpha + beta * np.sin(t) + gamma * np.cos(t), r, rtol=0, atol=1e-13):
-            return None
-    return alpha, beta, gamma
-
-
-def _nominal_entries(form, cos_n, sin_n):
-    """Entries of ``axis(n)`` from the nominal angle's cos and sin (data only)."""
-    alpha, beta, gamma = form
-    return [
-        [_add(float(alpha[i, j]), _add(_mul(sin_n, float(beta[i, j])), _mul(cos_n, float(gamma[i, j])))) for j in range(3)]
-        for i in range(3)
-    ]
-
-
 def _per_observation(fn, angles):
     """``(jax.vmap(fn)(angles), True)``, or ``(fn's result, False)`` evaluated once when it
     does not depend on the observation."""
@@ -342,7 +210,7 @@ def _hook_matrices(model: Model, hook: str, angles) -> list:
     for term in model.terms:
         r, batched = _per_observation(getattr(term, hook), angles)
         if r is not None:
-            out.append((_entries(r), batched))
+            out.append((entries(r), batched))
     return out
 
 
@@ -365,16 +233,16 @@ def _axis_matrices(mount, axis: str, cos_n, sin_n, nominal, offset) -> list:
     ``axis(n + o) = axis(n) . axis(0)^T . axis(o)``: the first factor comes from the
     data's cos and sin, the second is per site unless the offset varies by observation."""
     axis_fn = getattr(mount, axis)
-    form = _axis_form(mount, axis)
+    form = axis_form(mount, axis)
     value, batched = offset
     if form is None:  # not a fixed-axis rotation: the whole matrix per observation
         angle = nominal if value is None else nominal + value
-        return [(_entries(jax.vmap(axis_fn)(angle)), True)]
-    out = [(_nominal_entries(form, cos_n, sin_n), True)]
+        return [(entries(jax.vmap(axis_fn)(angle)), True)]
+    out = [(nominal_entries(form, cos_n, sin_n), True)]
     if value is not None:
         zero_t = (form[0] + form[2]).T  # axis(0)^T
         turn = jax.vmap(axis_fn)(value) if batched else axis_fn(value)
-        out.append((_entries(jnp.asarray(zero_t) @ turn if not np.allclose(zero_t, np.eye(3)) else turn), batched))
+        out.append((entries(jnp.asarray(zero_t) @ turn if not np.allclose(zero_t, np.eye(3)) else turn), batched))
     return out
 
 
@@ -382,14 +250,14 @@ def _apply_chain(matrices, v):
     """Apply ``M_1 . M_2 ... M_k`` to ``v``: neighbouring per-site matrices are multiplied
     together once per site, so each observation sees one matrix per run of them."""
     pending = None
-    for entries, batched in reversed(matrices):
+    for matrix, batched in reversed(matrices):
         if not batched:
-            pending = entries if pending is None else _matmul(entries, pending)
+            pending = matrix if pending is None else matmul(matrix, pending)
             continue
         if pending is not None:
-            v, pending = _turn(pending, v), None
-        v = _turn(entries, v)
-    return v if pending is None else _turn(pending, v)
+            v, pending = turn(pending, v), None
+        v = turn(matrix, v)
+    return v if pending is None else turn(pending, v)
 
 
 def _corrected(model: Model, nominal):
@@ -427,7 +295,7 @@ def _chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
     v = _boresight(mount)
     v = _apply_chain(chain, v)
     n = nominal.shape[0]
-    v = [jnp.broadcast_to(jnp.asarray(_value(x), nominal.dtype), (n,)) for x in v]
+    v = [jnp.broadcast_to(jnp.asarray(value(x), nominal.dtype), (n,)) for x in v]
     return v, angles
 
 
@@ -521,31 +389,18 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
     return wrap_pi(d1) * cos2, d2
 
 
-def _constant_entries(get: Callable[[], Array]) -> list:
-    """The entries of the vector or matrix ``get()`` as Python floats when it is a
-    constant (so that its zeros and ones are skipped), else as traced scalars. ``get``
-    runs under ``jax.ensure_compile_time_eval`` (a property evaluated outside it would
-    already be traced)."""
-    try:
-        with jax.ensure_compile_time_eval():
-            return np.asarray(get(), np.float64).tolist()
-    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
-        x = jnp.asarray(get())
-        return [x[i] if x.ndim == 1 else [x[i, j] for j in range(x.shape[1])] for i in range(x.shape[0])]
-
-
 def _boresight(mount) -> list:
-    """The mount's boresight as three entries (:func:`_constant_entries`)."""
-    return _constant_entries(lambda: mount.boresight)
+    """The mount's boresight as three entries (:func:`constant_entries`)."""
+    return constant_entries(lambda: mount.boresight)
 
 
 def _in_mount_frame(mount, v: Float[Array, "n 3"]) -> Float[Array, "n 3"]:
     """``v @ mount.frame`` entry by entry: the frame is usually a constant signed
     permutation, and XLA on the CPU runs even a product with the identity as a library
     call."""
-    frame = _constant_entries(lambda: mount.frame)
+    frame = constant_entries(lambda: mount.frame)
     components = [v[:, i] for i in range(3)]
-    return jnp.stack([_value(_dot([frame[i][j] for i in range(3)], components)) for j in range(3)], axis=-1)
+    return jnp.stack([value(dot([frame[i][j] for i in range(3)], components)) for j in range(3)], axis=-1)
 
 
 def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple[Array, Array]:

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import pointax as px
+from pointax import entries
 from pointax import normal_equations as ne
 from pointax import site
 from pointax.rotations import rot_z
@@ -153,19 +154,19 @@ def test_cholesky_gauss_newton_keeps_the_last_factor(m):
 
 
 def test_entry_algebra_with_symbolic_signs():
-    # _mul and _add keep constant zeros, ones and minus ones out of the arithmetic and a
+    # mul and add keep constant zeros, ones and minus ones out of the arithmetic and a
     # sign symbolic until an addition takes it; references: NumPy on the same values.
     x, y = RNG.normal(size=4), RNG.normal(size=4)
-    entries = [0.0, 1.0, -1.0, 2.5, x, y, site._Neg(x), site._Neg(y)]
+    cases = [0.0, 1.0, -1.0, 2.5, x, y, entries.Neg(x), entries.Neg(y)]
 
     def plain(e):
-        return -e.x if isinstance(e, site._Neg) else e
+        return -e.x if isinstance(e, entries.Neg) else e
 
-    for a in entries:
-        for b in entries:
-            np.testing.assert_array_equal(site._value(site._mul(a, b)), plain(a) * plain(b))
-            np.testing.assert_array_equal(site._value(site._add(a, b)), plain(a) + plain(b))
-    assert site._mul(-1.0, x).x is x and site._mul(site._Neg(x), -1.0) is x  # no arithmetic
+    for a in cases:
+        for b in cases:
+            np.testing.assert_array_equal(entries.value(entries.mul(a, b)), plain(a) * plain(b))
+            np.testing.assert_array_equal(entries.value(entries.add(a, b)), plain(a) + plain(b))
+    assert entries.mul(-1.0, x).x is x and entries.mul(entries.Neg(x), -1.0) is x  # no arithmetic
 
 
 def test_axis_forms_of_the_mounts_are_exact():
@@ -173,7 +174,7 @@ def test_axis_forms_of_the_mounts_are_exact():
     # +-1 (sin pi is not exactly 0 in floating point), so the fit skips them.
     for mount in (px.Turntable("full").mount, px.AltAz(px.terms.tpoint(("IA",))).mount, px.XY("basic").mount):
         for axis in ("axis1", "axis2"):
-            form = site._axis_form(mount, axis)
+            form = entries.axis_form(mount, axis)
             assert form is not None
             for m in form:
                 assert set(np.unique(m)) <= {-1.0, 0.0, 1.0}, (type(mount).__name__, axis, m)
@@ -186,7 +187,7 @@ def test_constant_mount_geometry_is_constant_while_tracing():
 
     def f(model):
         seen["boresight"] = site._boresight(model.mount)
-        seen["frame"] = site._constant_entries(lambda: model.mount.frame)
+        seen["frame"] = entries.constant_entries(lambda: model.mount.frame)
         return 0.0
 
     for model in (px.Turntable("full"), px.AltAz(px.terms.tpoint(("IA",)), azimuth="S-E")):
@@ -204,8 +205,8 @@ def test_axis_form_while_tracing():
     seen = {}
 
     def f(tilt):
-        seen["constant"] = site._axis_form_uncached(rot_z)
-        seen["traced"] = site._axis_form_uncached(lambda t: rot_z(t + tilt))
+        seen["constant"] = entries.axis_form_uncached(rot_z)
+        seen["traced"] = entries.axis_form_uncached(lambda t: rot_z(t + tilt))
         return tilt
 
     with jax.enable_x64(True):
