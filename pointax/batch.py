@@ -55,7 +55,7 @@ DEFAULT_STEPS = 5
 """Gauss-Newton steps of :func:`fit_batch`'s fast pass for models not affine in their
 parameters (with 4, 11 of 4,000 turntables went on to the full loop; with 3, all)."""
 
-__all__ = ["stack_observations", "fit_batch", "site_result", "site_statuses"]
+__all__ = ["stack_observations", "batched_observations", "fit_batch", "site_result", "site_statuses"]
 
 
 def stack_observations(sites: Sequence[Observations], n_obs: int | None = None) -> Observations:
@@ -87,10 +87,10 @@ def stack_observations(sites: Sequence[Observations], n_obs: int | None = None) 
         encoder[k, :m] = np.asarray(s.encoder)
         target[k, :m] = np.asarray(s.target)
         weight[k, :m] = np.asarray(s.weight)
-    return _batched(encoder, target, weight, conventions.pop())
+    return batched_observations(encoder, target, weight, conventions.pop())
 
 
-def _batched(encoder, target, weight, convention) -> Observations:
+def batched_observations(encoder, target, weight, convention) -> Observations:
     """An Observations pytree with a leading site axis (bypasses the 2-D shape checks)."""
     obs = Observations(encoder[0], target[0], weight[0], convention)
     return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight), obs, (encoder, target, weight))
@@ -445,7 +445,7 @@ def fit_batch(
     # Parameters as float64 arrays (host-side: no small computations to compile).
     model = model.replace_parameters(model.parameters, [_host(getattr(model.terms[p.term], p.field)) for p in model.parameters])
     fast = int(steps) > 0 and not options.robust
-    site_obs = _batched(
+    site_obs = batched_observations(
         np.asarray(observations.encoder, np.float64),
         np.asarray(observations.target, np.float64),
         np.asarray(observations.weight, np.float64),

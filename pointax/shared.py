@@ -38,7 +38,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from . import normal_equations as ne
 from ._x64 import float64
-from .batch import _batched, check_batch, fit_batch, site_statuses, start_values
+from .batch import batched_observations, check_batch, fit_batch, site_statuses, start_values
 from .fitting.core import result_from_covariance
 from .fitting.residuals import check_convention
 from .fitting.result import FitResult
@@ -321,7 +321,7 @@ def fit_shared(
         raise ValueError("no site can be fitted on its own; nothing to fit jointly")
     y0 = np.where(included[:, None], np.asarray(first.values), values)
     p0 = np.asarray([model.get(p.name) for p in shared_params], np.float64)
-    obs = _batched(
+    obs = batched_observations(
         np.asarray(observations.encoder, np.float64),
         np.asarray(observations.target, np.float64),
         np.asarray(observations.weight, np.float64),

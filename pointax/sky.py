@@ -62,6 +62,8 @@ from .rotations import azel_to_enu_numpy
 __all__ = [
     "DEFAULT_TEMPERATURE_C",
     "DEFAULT_WAVELENGTH_UM",
+    "as_time",
+    "check_location",
     "refraction",
     "site",
     "sun_altaz",
@@ -322,7 +324,7 @@ def _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um
     )
 
 
-def _as_time(times) -> Time:
+def as_time(times) -> Time:
     """``times`` as an astropy Time (UTC unless it already is a Time)."""
     if isinstance(times, Time):
         return times
@@ -332,7 +334,9 @@ def _as_time(times) -> Time:
         raise ValueError(f"times cannot be read as UTC times: {exc}") from exc
 
 
-def _check_location(location) -> EarthLocation:
+def check_location(location) -> EarthLocation:
+    """``location`` if it is one site's astropy EarthLocation; TypeError or ValueError
+    naming what it is otherwise."""
     if not isinstance(location, EarthLocation):
         raise TypeError(
             f"location must be an astropy EarthLocation (see pointax.sky.site), got {type(location).__name__}"
@@ -377,8 +381,8 @@ def _sun_altaz(
     times, location, pressure_hpa, temperature_c, relative_humidity, wavelength_um
 ):
     """Body of :func:`sun_altaz` (called directly by both public functions)."""
-    t = _as_time(times)
-    location = _check_location(location)
+    t = as_time(times)
+    location = check_location(location)
     if pressure_hpa is None:
         if temperature_c is not None:
             raise ValueError(

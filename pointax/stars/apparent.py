@@ -20,8 +20,8 @@ from ..rotations import azel_to_enu_numpy
 from ..sky import (
     DEFAULT_TEMPERATURE_C,
     DEFAULT_WAVELENGTH_UM,
-    _as_time,
-    _check_location,
+    as_time,
+    check_location,
     _check_weather,
     _iers_out_of_range,
     _offline_iers,
@@ -123,8 +123,8 @@ def apparent_altaz(
         raise TypeError(f"stars must be a pointax.stars.Catalogue, got {type(stars).__name__}")
     if len(stars) == 0:
         raise ValueError("the catalogue is empty: no stars to place")
-    t = _as_time(times)
-    location = _check_location(location)
+    t = as_time(times)
+    location = check_location(location)
     try:
         shape = np.broadcast_shapes(t.shape, (len(stars),))
     except ValueError:

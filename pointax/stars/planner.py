@@ -13,7 +13,7 @@ from astropy.time import Time
 from jaxtyping import Float, Int
 
 from ..rotations import azel_to_enu_numpy
-from ..sky import DEFAULT_WAVELENGTH_UM, _as_time, _check_location, sun_altaz
+from ..sky import DEFAULT_WAVELENGTH_UM, as_time, check_location, sun_altaz
 from ..units import ARCSEC
 from .apparent import apparent_altaz, checked_weather, fast_altaz
 from .catalogue import Catalogue
@@ -202,10 +202,10 @@ def plan_star_run(
         raise ValueError(
             f"elevation limits must satisfy 0 <= min_elevation_deg < max_elevation_deg <= 90, got {lo!r}, {hi!r}"
         )
-    t0 = _as_time(start)
+    t0 = as_time(start)
     if t0.shape != ():
         raise ValueError(f"start must be a single time, got shape {t0.shape}")
-    location = _check_location(location)
+    location = check_location(location)
     times = t0 + np.arange(n) * cadence * u.s
     weather = checked_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um, (n,))
     if weather is not None:
