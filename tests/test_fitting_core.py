@@ -45,6 +45,13 @@ class CompileCounter:
 COUNTER = CompileCounter()
 
 
+@pytest.fixture(scope="module", autouse=True)
+def fresh_unions():
+    """Start from no union: what other test files fitted in this process must not decide
+    which union this file's models are embedded in."""
+    structure.clear()
+
+
 @pytest.fixture(scope="module")
 def run():
     return px.io.read_tpoint(MMT_DAT, azimuth="S-E")

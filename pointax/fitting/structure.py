@@ -9,7 +9,8 @@ form: the terms the model lacks are present at their neutral values
 and held fixed, and which parameters are free is a boolean array. Models of the same
 family then share one structure, and so one compiled fit.
 
-A model takes the smallest of its family's unions that holds its terms; when none
+A model takes the most recently used of its family's unions that holds its terms
+(its fit is the one compiled for the data at hand); when none
 does, the most recent union grows by the model's new terms (that compiles once more)
 if it holds at least half of them, or else, or when it would carry more than
 :data:`MAX_EXTRA_TERMS` absent terms, the model gets a union of its own. Unions keep the terms in the order the models give them (rotations in
@@ -193,15 +194,18 @@ def _shares_most(union: tuple[Term, ...], model: Model) -> bool:
 
 
 def embed(model: Model) -> Embedding:
-    """Embed ``model`` in the smallest of its family's unions that holds its terms, or
-    in a new one: the most recent grown by the model's terms (a new structure: it
-    compiles once; the unions it grew from stay, up to :data:`MAX_UNIONS`)."""
+    """Embed ``model`` in the most recently used of its family's unions that holds its
+    terms, or in a new one: the most recent grown by the model's terms (a new
+    structure: it compiles once; the unions it grew from stay, up to
+    :data:`MAX_UNIONS`)."""
     key = _family(model)
     with _LOCK:
         unions = _UNIONS.setdefault(key, [])
-        holding = [u for u in unions if _fits(u, model)]
-        if holding:
-            union = min(holding, key=len)
+        # The most recently used union that holds the model: the one whose fit is
+        # compiled for the data at hand (a smaller one may not be).
+        holding = next((u for u in unions if _fits(u, model)), None)
+        if holding is not None:
+            union = holding
             unions.remove(union)
         else:
             union = tuple(model.terms)
