@@ -3,10 +3,10 @@
 ``import pointax`` then costs only what it imports itself, and astropy, torch, dask and
 the solvers load when a function that needs them is first looked up.
 
-    __getattr__, __dir__ = lazy_namespace(__name__, {"AltAz": "model", ...}, ("io", "sky"))
+    __getattr__, __dir__ = lazy_namespace(__name__, {"AltAz": "mount_models", ...}, ("io", "sky"))
 
-A function may share its name with the module defining it (``pointax.fit`` the function,
-``pointax/fit.py`` the module). Eager imports bound the function last, and so does this:
+A function may share its name with the module defining it (``pointax.command`` the
+function, ``pointax/command.py`` the module). Eager imports bound the function last, and so does this:
 when Python's import system stores the submodule on the package as an attribute of that
 name, the package keeps the function instead.
 """
@@ -27,7 +27,7 @@ class LazyPackage(types.ModuleType):
     def __setattr__(self, name: str, value) -> None:
         shadowed = self.__dict__.get("_lazy_shadowed", ())
         if name in shadowed and isinstance(value, types.ModuleType) and value.__name__ == f"{self.__name__}.{name}":
-            # Python's import system binding pointax/fit.py to pointax.fit: keep the
+            # Python's import system binding pointax/command.py to pointax.command: keep the
             # function (looked up by __getattr__ on first use).
             return
         super().__setattr__(name, value)

@@ -159,7 +159,7 @@ def calibrate_heliostat(
         run: a :class:`pointax.io.PaintRun` or the heliostat's folder.
         terms: parameters to fit (default: the four axis tilts t1n t1u t2e t2n; adding
             d1 beside t2e makes the fit report them as indistinguishable).
-        loss: robust loss (:data:`pointax.fit.LOSSES`); 'linear' for plain least squares.
+        loss: robust loss (:data:`pointax.fitting.LOSSES`); 'linear' for plain least squares.
         reject: outlier threshold in robust standard deviations.
         solver: least-squares solver name.
         max_steps: solver step limit of each fit.

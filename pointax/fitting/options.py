@@ -13,10 +13,10 @@ import operator
 __all__ = ["FitOptions", "SOLVER_NAMES", "LOSS_NAMES"]
 
 SOLVER_NAMES = {"lm": "Levenberg-Marquardt", "gauss-newton": "Gauss-Newton", "dogleg": "Dogleg"}
-"""Solver name -> display name (the optimistix classes: :data:`pointax.fit.SOLVERS`)."""
+"""Solver name -> display name (the optimistix classes: :data:`pointax.fitting.SOLVERS`)."""
 
 LOSS_NAMES = ("linear", "huber", "soft_l1", "cauchy")
-"""Loss names (the functions: :data:`pointax.fit.LOSSES`); 'linear' is least squares."""
+"""Loss names (the functions: :data:`pointax.fitting.LOSSES`); 'linear' is least squares."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -28,7 +28,7 @@ class FitOptions:
         max_steps: solver step limit; a fit that reaches it reports ``converged=False``.
         rtol, atol: optimistix tolerances on the parameters (radians) and the cost.
         loss: 'linear' (least squares, default) or a robust loss ('huber', 'soft_l1',
-            'cauchy'; see :data:`pointax.fit.LOSSES`).
+            'cauchy'; see :data:`pointax.fitting.LOSSES`).
         loss_scale: soft margin of the robust loss, radians (None: twice the robust
             standard deviation of the residuals, re-estimated after a first pass).
         reject: with a robust loss, observations whose weighted residual norm exceeds

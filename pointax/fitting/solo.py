@@ -81,7 +81,7 @@ def fit(
         rtol, atol: optimistix tolerances on the parameters (radians) and the cost.
         caption: title line for the report (default: the run's caption, if any).
         loss: 'linear' (least squares, default) or a robust loss from
-            :data:`pointax.fit.LOSSES` ('cauchy' is the most forgiving of gross outliers).
+            :data:`pointax.fitting.LOSSES` ('cauchy' is the most forgiving of gross outliers).
         loss_scale: soft margin of the robust loss, radians (default: twice the robust
             standard deviation of the residuals, re-estimated after a first pass).
         reject: with a robust loss, observations whose weighted residual norm exceeds
