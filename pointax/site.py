@@ -62,6 +62,7 @@ __all__ = [
     "with_sky_basis",
     "site_residuals",
     "residual_columns",
+    "residuals_and_columns",
     "residual_function",
     "is_affine",
 ]
@@ -303,33 +304,46 @@ def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
     """Pointing directions in the mount frame, as three ``(n,)`` arrays (x, y, z);
     the same as ``jax.vmap(model.mount_direction)`` over the site's readings."""
     v, angles = _chain_pointing(model, data)
-    has_sky = any(_per_observation(t.sky_offset, angles)[0] is not None for t in model.terms)
-    if not has_sky:
+    if not _has_sky_offsets(model, angles):
         return v
-    # Pointing offsets at the sky position (TPOINT's linear form): per observation.
+    sky = _sky_position(model, _chain_angles(model, v, angles), data.nominal, data.trig)
+    return _direction_at(model, sky[:, 0], sky[:, 1], data)
+
+
+def _has_sky_offsets(model: Model, angles) -> bool:
+    """Whether any term adds a pointing offset at the sky position (decided while tracing)."""
+    return any(_per_observation(t.sky_offset, angles)[0] is not None for t in model.terms)
+
+
+def _chain_angles(model: Model, v, angles):
+    """The axis angles ``(n, 2)`` where the chain points (``v``, three ``(n,)`` arrays),
+    near the corrected ``angles``."""
     if _rotated(model, angles):
-        chain_angles = jax.vmap(model.mount.angles_of)(jnp.stack(v, axis=-1), angles)
-    else:
-        chain_angles = angles  # no rotation term in the chain: its direction's angles are these
-    sky = _sky_position(model, chain_angles, data.nominal, data.trig)
+        return jax.vmap(model.mount.angles_of)(jnp.stack(v, axis=-1), angles)
+    return angles  # no rotation term in the chain: its direction's angles are these
+
+
+def _direction_at(model: Model, a1, a2, data: SiteData) -> list[Float[Array, " n"]]:
+    """The mount's direction at the axis angles ``a1, a2`` (``(n,)`` each) as three ``(n,)``
+    arrays."""
     if type(model.mount).direction is SphericalMount.direction:
         # (sin a1 cos a2, cos a1 cos a2, sin a2) from the sines and cosines at hand.
-        p = _sky_point(sky, data.nominal, data.trig)
+        p = _sky_point(a1, a2, data.nominal, data.trig)
         return [p.sin_az * p.cos_el, p.cos_az * p.cos_el, p.sin_el]
-    d = jax.vmap(model.mount.direction)(sky)
+    d = jax.vmap(model.mount.direction)(jnp.stack([a1, a2], axis=-1))
     return [d[:, 0], d[:, 1], d[:, 2]]
 
 
-def _sky_point(angles, nominal, trig) -> SkyPoint:
-    """The :class:`SkyPoint` at ``angles`` ``(n, 2)``, its sines and cosines by angle
+def _sky_point(a1, a2, nominal, trig) -> SkyPoint:
+    """The :class:`SkyPoint` at the axis angles ``a1, a2`` (``(n,)`` each), its sines and cosines by angle
     addition from those of the ``nominal`` angles (``trig``: cos and sin of axis 1, then
     of axis 2) and the vectorised sine and cosine of the small differences: XLA on the
     CPU calls the C library once per element for ``jnp.sin`` (the sky form's batched
     fit ran 70 times slower than the TPOINT form's with them)."""
     cos1, sin1, cos2, sin2 = trig
-    (s1, c1), (s2, c2) = sincos(angles[:, 0] - nominal[:, 0]), sincos(angles[:, 1] - nominal[:, 1])
+    (s1, c1), (s2, c2) = sincos(a1 - nominal[:, 0]), sincos(a2 - nominal[:, 1])
     return SkyPoint(
-        angles[:, 0], angles[:, 1], sin1 * c1 + cos1 * s1, cos1 * c1 - sin1 * s1, sin2 * c2 + cos2 * s2, cos2 * c2 - sin2 * s2
+        a1, a2, sin1 * c1 + cos1 * s1, cos1 * c1 - sin1 * s1, sin2 * c2 + cos2 * s2, cos2 * c2 - sin2 * s2
     )
 
 
@@ -347,12 +361,21 @@ def _sky_offsets(model: Model, point: SkyPoint):
 def _sky_position(model: Model, chain_angles, nominal, trig):
     """:meth:`pointax.Model.sky_position` over a site: the same fixed-point iterations
     (a loop, as there: unrolled, they tripled the compilation), with
-    :func:`_sky_point`'s sines and cosines."""
+    :func:`_sky_point`'s sines and cosines, on the two angles as separate ``(n,)``
+    arrays (carried as one ``(n, 2)`` array, the loop ran at half the speed)."""
+    c1, c2 = chain_angles[:, 0], chain_angles[:, 1]
 
     def step(_, sky):
-        return chain_angles + _sky_offsets(model, _sky_point(sky, nominal, trig))
+        g1, g2 = _offsets_at(model, *sky, nominal, trig)
+        return c1 + g1, c2 + g2
 
-    return jax.lax.fori_loop(0, model.sky_iterations, step, chain_angles)
+    return jnp.stack(jax.lax.fori_loop(0, model.sky_iterations, step, (c1, c2)), axis=-1)
+
+
+def _offsets_at(model: Model, a1, a2, nominal, trig):
+    """The terms' total sky offset at the axis angles ``a1, a2`` as two ``(n,)`` arrays."""
+    g = _sky_offsets(model, _sky_point(a1, a2, nominal, trig))
+    return g[:, 0], g[:, 1]
 
 
 def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
@@ -420,15 +443,20 @@ def _site_residuals(model: Model, data: SiteData, weighted: bool) -> tuple[Array
     if model.residual_form == "tpoint":
         rx, ry = _tpoint_site_residuals(model, data)
     else:
-        x, y, z = site_pointing(model, data)
-        ca, sa, ce, se = data.target_trig
-        # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
-        horizontal = x * sa + y * ca
-        inv_depth = 1.0 / (ce * horizontal + se * z)
-        rx = (y * sa - x * ca) * inv_depth
-        ry = (se * horizontal - ce * z) * inv_depth
+        rx, ry = _tangent_offsets(site_pointing(model, data), data.target_trig)
     scale = data.sqrt_weight if weighted else 1.0
     return jnp.where(data.used, rx * scale, 0.0), jnp.where(data.used, ry * scale, 0.0)
+
+
+def _tangent_offsets(pointing, target_trig) -> tuple[Array, Array]:
+    """The sky form's residuals, observed minus model in the tangent plane of the target:
+    ``pointing`` three ``(n,)`` arrays (mount frame), ``target_trig`` as in :class:`SiteData`."""
+    x, y, z = pointing
+    ca, sa, ce, se = target_trig
+    # target (ce sa, ce ca, se); e_az (ca, -sa, 0); e_el (-se sa, -se ca, ce)
+    horizontal = x * sa + y * ca
+    inv_depth = 1.0 / (ce * horizontal + se * z)
+    return (y * sa - x * ca) * inv_depth, (se * horizontal - ce * z) * inv_depth
 
 
 _site_residuals_jit = jax.jit(_site_residuals, static_argnums=2)
@@ -440,16 +468,75 @@ def _values(y, n: int) -> list:
 
 def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]) -> list[tuple[Array, Array]]:
     """Columns of the Jacobian of :func:`site_residuals` (weighted) with respect to
-    ``params``: one forward derivative per parameter, ``[(d rx/d p, d ry/d p), ...]``."""
-    cols = []
-    for p in params:
-        value = getattr(model.terms[p.term], p.field)
+    ``params``: ``[(d rx/d p, d ry/d p), ...]``, one forward derivative per parameter
+    (:func:`_sky_form_columns` for the sky form's fixed point)."""
+    return residuals_and_columns(model, data, params)[1]
 
-        def one(x, p=p):
-            return site_residuals(model.replace_parameters([p], [x]), data)
 
-        cols.append(jax.jvp(one, (value,), (jnp.ones_like(value),))[1])
-    return cols
+def residuals_and_columns(
+    model: Model, data: SiteData, params: Sequence[ParameterInfo]
+) -> tuple[tuple[Array, Array], list[tuple[Array, Array]]]:
+    """:func:`site_residuals` (weighted) and :func:`residual_columns` together (the sky
+    form's fixed point gives both from one loop)."""
+    if params and model.residual_form != "tpoint" and _has_sky_offsets(model, data.nominal):
+        return _sky_form_columns(model, data, params)
+    return site_residuals(model, data), [_column(lambda m: site_residuals(m, data), model, p) for p in params]
+
+
+def _column(fn, model: Model, p: ParameterInfo):
+    """The forward derivative of ``fn(model)`` with respect to the parameter ``p``."""
+    value = getattr(model.terms[p.term], p.field)
+    return jax.jvp(lambda x: fn(model.replace_parameters([p], [x])), (value,), (jnp.ones_like(value),))[1]
+
+
+def _sky_form_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]):
+    """:func:`residuals_and_columns` for the sky form of a model with sky offsets: the
+    forward derivative of the same fixed-point iterations (:func:`_sky_position`), for
+    all parameters in one loop.
+
+    Iteration ``i`` maps the sky angles ``s`` to ``chain + g(s)``; its derivative maps
+    ``ds/dp`` to ``dchain/dp + G ds/dp + dg/dp``, where ``G`` (2 x 2 per observation) is
+    shared by all parameters and ``dg/dp`` touches only the terms holding ``p``. The
+    residuals' derivative with respect to the final ``s`` (2 x 2 per observation) then
+    gives the columns. Differentiating the loop parameter by parameter instead repeats
+    the whole loop, and ``G``, for every parameter."""
+    nominal, trig = data.nominal, data.trig
+
+    def chain_of(m):
+        v, angles = _chain_pointing(m, data)
+        angles = _chain_angles(m, v, angles)
+        return angles[:, 0], angles[:, 1]
+
+    def offsets(m, a1, a2):
+        return _offsets_at(m, a1, a2, nominal, trig)
+
+    def partials(fn, a1, a2):
+        """``fn(a1, a2)`` and its derivatives with respect to ``a1`` and ``a2``."""
+        ones = jnp.ones_like(a1)
+        out, d1 = jax.jvp(lambda x: fn(x, a2), (a1,), (ones,))
+        return out, d1, jax.jvp(lambda x: fn(a1, x), (a2,), (ones,))[1]
+
+    def per_parameter(fn):
+        """``fn(model)``'s derivatives with respect to each parameter: two ``(m, n)`` arrays."""
+        cols = [_column(fn, model, p) for p in params]
+        return jnp.stack([c[0] for c in cols]), jnp.stack([c[1] for c in cols])
+
+    # Structure of arrays: the sky angles as two (n,) arrays, their derivatives as two
+    # (m, n) arrays (one row per parameter).
+    c1, c2 = chain_of(model)
+    tc1, tc2 = per_parameter(chain_of)
+
+    def step(_, carry):
+        a1, a2, t1, t2 = carry
+        (g1, g2), d1, d2 = partials(lambda x1, x2: offsets(model, x1, x2), a1, a2)
+        dg1, dg2 = per_parameter(lambda m: offsets(m, a1, a2))
+        return c1 + g1, c2 + g2, tc1 + d1[0] * t1 + d2[0] * t2 + dg1, tc2 + d1[1] * t1 + d2[1] * t2 + dg2
+
+    a1, a2, t1, t2 = jax.lax.fori_loop(0, model.sky_iterations, step, (c1, c2, tc1, tc2))
+    r, r1, r2 = partials(lambda x1, x2: _tangent_offsets(_direction_at(model, x1, x2, data), data.target_trig), a1, a2)
+    weighted = lambda x: jnp.where(data.used, x * data.sqrt_weight, 0.0)  # noqa: E731
+    cols = [tuple(weighted(r1[i] * t1[k] + r2[i] * t2[k]) for i in range(2)) for k in range(len(params))]
+    return (weighted(r[0]), weighted(r[1])), cols
 
 
 def residual_function(params: Sequence[ParameterInfo]):
@@ -470,12 +557,15 @@ def residual_function(params: Sequence[ParameterInfo]):
         ty, t_model, t_data = tangents
         ys = _values(y, n)
         fitted = model.replace_parameters(params, ys)
-        out = site_residuals(fitted, data)
+        if isinstance(ty, SymbolicZero):
+            out, columns = site_residuals(fitted, data), None
+        else:
+            out, columns = residuals_and_columns(fitted, data, params)
         # Sums started from their first term, not from zeros: a linearisation stores every
         # constant it meets as an array (see _scaled).
         parts = []
-        if not isinstance(ty, SymbolicZero):
-            parts += [(_scaled(ty[k], cx), _scaled(ty[k], cy)) for k, (cx, cy) in enumerate(residual_columns(fitted, data, params))]
+        if columns is not None:
+            parts += [(_scaled(ty[k], cx), _scaled(ty[k], cy)) for k, (cx, cy) in enumerate(columns)]
         extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m.replace_parameters(params, ys), d))
         if extra is not None:
             parts.append(extra)
