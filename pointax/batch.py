@@ -31,6 +31,7 @@ from . import normal_equations
 from ._x64 import float64
 from .fitting.core import result_from_covariance
 from .fitting.options import FitOptions
+from .fitting.ranges import range_warning, wrap_periodic
 from .fitting.residuals import check_convention
 from .fitting.result import FitResult
 from .fitting.solo import fit_model, options_from
@@ -105,7 +106,11 @@ def site_result(result: FitResult, site: int) -> FitResult:
 def site_statuses(result: FitResult) -> list[dict[str, str]]:
     """Per site of a batched result: ``{"status": ..., "reason": ...}`` with status
     ``"converged"``, ``"degenerate"`` (converged, but some parameters cannot be told
-    apart: the reason names them) or ``"failed"`` (the reason says why)."""
+    apart: the reason names them) or ``"failed"`` (the reason says why: too few
+    observations for the free parameters, as :func:`pointax.fit` refuses them, or why
+    the solver stopped). A converged site whose values lie outside their declared ranges
+    (:mod:`pointax.fitting.ranges`: an equivalent solution in another branch) keeps its
+    status, with the reason saying so."""
     out = []
     for k in range(int(np.shape(result.converged)[0])):
         one = site_result(result, k)
@@ -115,7 +120,7 @@ def site_statuses(result: FitResult) -> list[dict[str, str]]:
         elif degenerate:
             out.append({"status": "degenerate", "reason": "cannot be told apart: " + ", ".join(degenerate)})
         else:
-            out.append({"status": "converged", "reason": ""})
+            out.append({"status": "converged", "reason": range_warning(np.asarray(one.values), one.model.free_parameters)})
     return out
 
 
@@ -493,5 +498,11 @@ def fit_batch(
                 progress(stop, n_sites)
     # Assembled on the host: JAX's slicing and concatenation (and jnp.asarray) would each
     # compile a small computation per result field on the first call (0.6 s measured).
-    result = jax.device_put(jax.tree.map(lambda *xs: np.concatenate(xs), *results), may_alias=True)
-    return dataclasses.replace(result, solver=solver)
+    result = jax.tree.map(lambda *xs: np.concatenate(xs), *results)
+    # A site with no more residuals than free parameters fits every point, with every
+    # sigma 0: refused, as px.fit refuses it (the reason: FitResult.message).
+    n_free = len(model.free_parameters)
+    too_little = 2 * np.asarray(result.n_obs) <= n_free if n_free else np.zeros(n_sites, bool)
+    result = dataclasses.replace(result, converged=np.asarray(result.converged) & ~too_little, solver=solver)
+    # An encoder zero that ended a turn away is reported in its range (same model).
+    return wrap_periodic(jax.device_put(result, may_alias=True))

@@ -32,6 +32,7 @@ diagnostic and carries no gradient.
 from __future__ import annotations
 
 import itertools
+import math
 
 import equinox as eqx
 import jax
@@ -44,8 +45,9 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 from ._x64 import float64
 from .model import Model
 from .rotations import angle_between, tangent_offset
+from .units import angles_in_radians, directions_enu, is_quantity
 
-__all__ = ["OPPOSITE_TOL", "SOLUTIONS", "Command", "command", "command_reflector", "reflect_normal"]
+__all__ = ["LIMIT_TURNS", "OPPOSITE_TOL", "SOLUTIONS", "ZENITH_TOL", "Command", "command", "command_reflector", "reflect_normal"]
 
 SOLUTIONS = ("nearest", "normal", "flipped")
 """Values of ``command(..., solution=...)``."""
@@ -63,6 +65,11 @@ _OPPOSITE = 3
 _NO_FLIP = 4
 _AXIS1_OUT = 8  # bit
 _AXIS2_OUT = 16  # bit
+
+ZENITH_TOL = 1e-3
+"""Without ``near``, :func:`command` returns the flipped solution in place of a failed
+normal one only where the flipped reading's axis-2 angle is within this (as cos of
+the angle, about 0.06 deg) of the pole of axis 1, where the two are the same pointing."""
 
 _TWO_PI = 2.0 * np.pi
 # A safe direction solved in place of a non-finite one (its result is discarded).
@@ -224,7 +231,11 @@ def _newton(model: Model, start, target, tol: float, max_steps: int):
 
 def _settle(model: Model, reading, target, near, has_near, limits, pref, tol: float):
     """Apply the branch rule to a converged reading; status bits and residual."""
-    cands = reading + _TWO_PI * _FINAL_SHIFTS
+    # Whole turns back towards the preferred branch first: near the pole of axis 1 (the
+    # zenith of an alt-az mount) Newton may wander many turns along axis 1.
+    turns = jnp.round((_centre(limits, near, has_near, pref) - reading) / _TWO_PI)
+    turns = jnp.where(jnp.isfinite(turns), turns, 0.0)
+    cands = reading + _TWO_PI * (turns + _FINAL_SHIFTS)
     shifted = cands[_pick(cands, limits, near, has_near, pref)]
     sg = jax.lax.stop_gradient
     res = angle_between(model.direction(sg(reading)), sg(target))
@@ -282,7 +293,21 @@ def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps
     other = 1 - prefer
     ok_prefer = jnp.take_along_axis(ok2, prefer[:, None], axis=1)[:, 0]
     ok_other = jnp.take_along_axis(ok2, other[:, None], axis=1)[:, 0]
-    nearest = jnp.where(ok_prefer | ~ok_other, prefer, other)
+    # Without ``near`` the normal solution is returned where it exists, ok or not (with
+    # its reason): the flipped one takes its place only where the normal one is out of
+    # the limits given, where the model cannot be evaluated at it (NaN: a term's pole,
+    # such as TX's cot E at E = 0 exactly), or where the flipped reading is the normal
+    # one in all but name (within ZENITH_TOL of the pole of axis 1, at the zenith,
+    # where the normal Newton solve meets a singular Jacobian). A normal solve that
+    # merely did not converge (near the horizon of a model with a cot E term) is
+    # reported as such, never replaced by the flipped one.
+    flipped_angles = jax.vmap(model.corrected_encoder)(jnp.where(jnp.isfinite(readings[:, 1]), readings[:, 1], 0.0))
+    at_pole = jnp.cos(flipped_angles[:, 1]) >= -ZENITH_TOL
+    normal_status = status[:, 0]
+    out_of_limits = (normal_status & (_AXIS1_OUT | _AXIS2_OUT)) != 0
+    unevaluable = ~jnp.all(jnp.isfinite(readings[:, 0]), axis=-1) | ~jnp.isfinite(residuals[:, 0])
+    fallback = has_near | ((prefer == 0) & (at_pole | out_of_limits | unevaluable))
+    nearest = jnp.where(fallback & ~ok_prefer & ok_other, other, prefer)
     pick = jnp.where(solution == 0, nearest, solution - 1)
 
     def take(x):
@@ -296,20 +321,50 @@ def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps
     return reading, status == _OK, residual, iterations, pick, status
 
 
+LIMIT_TURNS = 2.0
+"""Limits beyond this many turns (4 pi rad) in magnitude are refused: they are degrees
+given where radians are expected."""
+
+
+def _limit_value(x, axis: int, end: str) -> float:
+    """One end of an axis limit in radians (a Quantity converted, a bare number as it is)."""
+    name = f"limits: axis {axis + 1} {end}"
+    value = angles_in_radians(x, name)
+    if value.shape != ():
+        raise ValueError(f"{name} must be one number, got shape {value.shape}")
+    value = float(value)
+    if math.isnan(value):
+        raise ValueError(f"{name} is NaN (use None for no limit)")
+    if math.isfinite(value) and abs(value) > LIMIT_TURNS * _TWO_PI:
+        raise ValueError(
+            f"{name} is {value:g} rad, beyond {LIMIT_TURNS:g} turns: it looks like degrees; limits are in "
+            "reading units (radians for angle encoders): use px.deg(x) or an astropy Quantity"
+        )
+    return value
+
+
 def _limits_array(limits) -> Array:
-    """``((lo1, hi1), (lo2, hi2))`` with None for "no limit" -> ``(2, 2)`` float64."""
+    """``((lo1, hi1), (lo2, hi2))`` with None for "no limit" -> ``(2, 2)`` float64.
+
+    Raises:
+        ValueError: for a bad shape, NaN, an inverted axis (min above max) or a limit
+            beyond :data:`LIMIT_TURNS` turns (degrees given for radians)."""
     if limits is None:
         limits = (None, None)
+    if is_quantity(limits):
+        limits = angles_in_radians(limits, "limits").tolist()
     if len(limits) != 2:
-        raise ValueError(f"limits must be ((axis1_min, axis1_max), (axis2_min, axis2_max)), got {limits!r}")
+        raise ValueError(f"limits: expected ((axis1_min, axis1_max), (axis2_min, axis2_max)), got {limits!r}")
     rows = []
-    for axis in limits:
+    for k, axis in enumerate(limits):
         if axis is None:
             axis = (None, None)
         if len(axis) != 2:
-            raise ValueError(f"each axis limit must be (min, max) or None, got {axis!r}")
-        lo = -jnp.inf if axis[0] is None else axis[0]
-        hi = jnp.inf if axis[1] is None else axis[1]
+            raise ValueError(f"limits: axis {k + 1}: each axis limit must be (min, max) or None, got {axis!r}")
+        lo = -np.inf if axis[0] is None else _limit_value(axis[0], k, "min")
+        hi = np.inf if axis[1] is None else _limit_value(axis[1], k, "max")
+        if lo > hi:
+            raise ValueError(f"limits: axis {k + 1} is inverted: min {lo:g} rad is above max {hi:g} rad")
         rows.append(jnp.stack([jnp.asarray(lo, float), jnp.asarray(hi, float)]))
     return jnp.stack(rows)
 
@@ -333,13 +388,17 @@ def command(
     Args:
         model: the pointing model (:class:`pointax.Model`).
         direction: ``(..., 3)`` wanted directions, East-North-Up (normalised here; a
-            non-finite or zero vector gives ``ok=False``, "non-finite direction").
+            non-finite or zero vector gives ``ok=False``, "non-finite direction"); or
+            an astropy ``SkyCoord`` in ``AltAz``, or a ``(..., 2)`` Quantity of azimuth
+            (North through East) and elevation.
         solution: ``"normal"`` (the mount's axis-2 angle, after encoder corrections,
             within 90 deg of its zero: for an alt-az mount elevation in [-90, 90] deg),
             ``"flipped"`` (over the top: axis 1 + 180 deg, axis 2 = 180 deg -
             elevation) or ``"nearest"`` (of those that are ``ok``, the one nearer
-            ``near``, or the normal one when ``near`` is None; where neither is ok,
-            that one is returned with its reason).
+            ``near``; where neither is ok, that one is returned with its reason).
+            Without ``near``, ``"nearest"`` is ``"normal"``: the normal solution is
+            returned even where it is not ok (near the horizon of a model with a
+            cot E term, for instance), never the flipped one in its place.
         near: ``(2,)`` or ``(..., 2)`` current readings (reading units): the branch of
             each axis (whole-turn shifts) and, for ``"nearest"``, the mechanical
             solution nearest them are chosen. Distances are summed over the two axes.
@@ -351,7 +410,9 @@ def command(
             the one nearest ``near``, else the lowest. A direction that cannot be
             reached inside them gets ``ok=False`` and an "out of limits" reason.
             Whole-turn candidates are searched within about +-2.5 turns of the middle
-            of the limits.
+            of the limits. Astropy Quantities are converted; an inverted axis (min
+            above max) or a limit beyond two turns (degrees given as radians) raises
+            ``ValueError``.
         tol: Newton tolerance (radians) on the tangent-plane offset and the step; a
             result counts as converged when its residual is at most ``10 * tol``.
             Directions the model cannot reach at all (e.g. within ``|CA|`` of the
@@ -364,11 +425,11 @@ def command(
 
     Raises:
         ValueError: for an unknown ``solution``, badly shaped ``direction``, ``near``
-            or ``limits``.
+            or ``limits``, inverted limits or limits that look like degrees.
     """
     if solution not in SOLUTIONS:
         raise ValueError(f"unknown solution {solution!r}; expected one of {SOLUTIONS}")
-    direction = jnp.asarray(direction, float)
+    direction = jnp.asarray(directions_enu(direction, "direction"), float)
     if direction.ndim < 1 or direction.shape[-1] != 3:
         raise ValueError(f"direction must have shape (..., 3), got {direction.shape}")
     batch = direction.shape[:-1]
@@ -377,7 +438,7 @@ def command(
     if near is None:
         near_flat = jnp.zeros((n, 2))
     else:
-        near = jnp.asarray(near, float)
+        near = jnp.asarray(angles_in_radians(near, "near") if is_quantity(near) else near, float)
         if near.shape[-1:] != (2,):
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
         near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
@@ -459,8 +520,8 @@ def command_reflector(
     Pairs where sun and target are opposite get ``ok=False`` with the reason "sun and
     target are opposite: mirror normal undefined"; the others are unaffected.
     """
-    sun = jnp.asarray(sun, float)
-    target = jnp.asarray(target, float)
+    sun = jnp.asarray(directions_enu(sun, "sun"), float)
+    target = jnp.asarray(directions_enu(target, "target"), float)
     sun, target = jnp.broadcast_arrays(sun, target)
     n, opposite = _opposite(sun, target)
     n = jnp.where(opposite[..., None], jnp.nan, n)

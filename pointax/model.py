@@ -13,6 +13,7 @@ from jaxtyping import Array, ArrayLike, Float
 from ._x64 import float64
 from .mounts import Mount, SphericalMount
 from .terms.base import Term, check_linear_claim, param_fields, param_unit
+from .units import UNITS, is_quantity, value_in_unit
 
 __all__ = ["Model", "ParameterInfo", "RESIDUAL_FORMS"]
 
@@ -20,14 +21,37 @@ RESIDUAL_FORMS = ("sky", "tpoint")
 """What a fit minimises (:attr:`Model.residual_form`)."""
 
 
+def _in_unit(value, p: "ParameterInfo", unit):
+    """``value`` (internal units) of parameter ``p`` in ``unit``: a unit name of
+    :data:`pointax.units.UNITS` gives a float, an astropy unit a Quantity."""
+    if isinstance(unit, str):
+        if unit not in UNITS:
+            raise ValueError(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}")
+        if (unit == "1") != (p.unit == "1"):
+            raise ValueError(f"parameter {p.name} is in {p.unit}; it cannot be given in {unit}")
+        return float(value) / UNITS[unit]
+    import astropy.units as u
+
+    internal = u.dimensionless_unscaled if p.unit == "1" else u.rad
+    try:
+        return (float(value) * internal).to(unit)
+    except u.UnitConversionError:
+        raise ValueError(f"parameter {p.name} is in {p.unit}; it cannot be given in {unit}") from None
+
+
 @dataclasses.dataclass(frozen=True)
 class ParameterInfo:
-    """Where one scalar parameter lives: its name, term index, field name and unit."""
+    """Where one scalar parameter lives: its name, term index, field name and unit, and
+    what its declaration says of its values (:func:`pointax.terms.param`): the range
+    ``expected`` of a sound fit and the ``period`` of an angle whose multiples give the
+    same model (None when not declared)."""
 
     name: str
     term: int
     field: str
     unit: str
+    expected: tuple[float, float] | None = None
+    period: float | None = None
 
 
 class Model(eqx.Module):
@@ -114,7 +138,7 @@ class Model(eqx.Module):
             fields = param_fields(term)
             for f in fields:
                 name = term.name if len(fields) == 1 else f"{term.name}.{f.name}"
-                out.append(ParameterInfo(name, i, f.name, param_unit(f)))
+                out.append(ParameterInfo(name, i, f.name, param_unit(f), f.metadata.get("expected"), f.metadata.get("period")))
         return tuple(out)
 
     @property
@@ -148,29 +172,44 @@ class Model(eqx.Module):
         )
 
     def values(self, which: str = "all") -> Float[Array, " n"]:
-        """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'."""
+        """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'.
+
+        float64 whether or not JAX's x64 mode is on (outside it, JAX would make the
+        vector float32 and ``with_values(values())`` would truncate the model)."""
+        if not jax.config.jax_enable_x64:
+            with jax.enable_x64(True):
+                return self.values(which)
         params = self._select(which)
         if not params:
             return jnp.zeros((0,))
         return jnp.stack([jnp.asarray(getattr(self.terms[p.term], p.field), float) for p in params])
 
     def with_values(self, values: Float[ArrayLike, " n"], which: str = "all") -> "Model":
-        """A copy with parameter values replaced from a vector (see :meth:`values`)."""
+        """A copy with parameter values replaced from a vector (see :meth:`values`);
+        float64 values stay float64 whether or not JAX's x64 mode is on."""
+        if not jax.config.jax_enable_x64:
+            with jax.enable_x64(True):
+                return self.with_values(values, which)
         params = self._select(which)
         values = jnp.asarray(values)
         if values.shape != (len(params),):
             raise ValueError(f"expected {len(params)} values, got shape {values.shape}")
         return self.replace_parameters(params, [values[k] for k in range(len(params))])
 
-    def get(self, name: str):
-        """Value of the parameter called ``name`` (internal units)."""
+    def get(self, name: str, unit=None):
+        """Value of the parameter called ``name``: in internal units (radians for
+        angles) by default; in ``unit`` when given, a unit name ('arcsec', 'deg',
+        'mrad', 'rad') for a float or an astropy unit for a Quantity."""
         for p in self.parameters:
             if p.name == name:
-                return getattr(self.terms[p.term], p.field)
+                value = getattr(self.terms[p.term], p.field)
+                return value if unit is None else _in_unit(value, p, unit)
         raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
 
     def set(self, **values) -> "Model":
-        """A copy with the named parameters set, e.g. ``model.set(IA=px.arcsec(10))``.
+        """A copy with the named parameters set, e.g. ``model.set(IA=px.arcsec(10))``
+        or, with astropy, ``model.set(IA=10 * u.arcsec)`` (a Quantity is converted to
+        internal units; a bare number is taken as internal units, radians for angles).
 
         Use ``model.set(**{"Wobble.amp": x})`` for dotted names.
         """
@@ -178,7 +217,11 @@ class Model(eqx.Module):
         for name in values:
             if name not in info:
                 raise KeyError(f"no parameter {name!r}; the model has {self.parameter_names}")
-        return self.replace_parameters([info[n] for n in values], values.values())
+        converted = [
+            value_in_unit(v, "1" if info[n].unit == "1" else "rad", f"parameter {n}") if is_quantity(v) else v
+            for n, v in values.items()
+        ]
+        return self.replace_parameters([info[n] for n in values], converted)
 
     def restructured(self, terms: Iterable[Term] | None = None, fixed: Iterable[str] | None = None) -> "Model":
         """A copy with other ``terms`` and/or ``fixed`` names, everything else kept."""
@@ -284,7 +327,10 @@ class Model(eqx.Module):
 
     @float64
     def __call__(self, encoder: Float[ArrayLike, "*batch 2"]) -> Float[Array, "*batch 3"]:
-        """Pointing directions (ENU) for raw encoder angles of any batch shape (radians)."""
+        """Pointing directions (ENU) for raw encoder angles of any batch shape (radians,
+        or an astropy Quantity, converted)."""
+        if is_quantity(encoder):
+            encoder = value_in_unit(encoder, "rad", "encoder")
         encoder = jnp.asarray(encoder, float)
         flat = encoder.reshape(-1, 2)
         out = jax.vmap(self.direction)(flat)

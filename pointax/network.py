@@ -72,6 +72,7 @@ import numpy as np
 from . import terms as term_library
 from ._x64 import float64
 from .batch import fit_batch, site_result, site_statuses, stack_observations
+from .listing import observation_entries
 from .fitting.core import SOLVERS
 from .fitting.result import FitResult
 from .heliostat import calibrate_heliostat
@@ -542,6 +543,10 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         if entry.format == "tpoint":
             head.update(caption=run.caption, form=entry.form, residuals=entry.residuals)
         out[entry.site] = {**head, **statuses[k], **one.to_dict()}
+        # As pointax fit --json: no masks, one entry per observation.
+        n = len(run.observations)
+        rows = eqx.tree_at(lambda r: (r.used, r.outliers), one, (np.asarray(one.used)[:n], np.asarray(one.outliers)[:n]))
+        out[entry.site].update(masked=[], observations=observation_entries(run, rows))
     return out
 
 

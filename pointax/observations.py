@@ -7,7 +7,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-__all__ = ["Observations"]
+from .errors import warn_input
+from .units import angles_in_radians, check_not_degrees, directions_enu
+
+__all__ = ["Observations", "COUNTED_READINGS"]
+
+COUNTED_READINGS = frozenset({"heliostat"})
+"""Conventions whose readings are counts (a heliostat's actuator increments), not
+angles: they are not checked for looking like degrees."""
 
 
 class Observations(eqx.Module):
@@ -15,9 +22,13 @@ class Observations(eqx.Module):
 
     Attributes:
         encoder: ``(n, 2)`` raw encoder angles in radians, in the mount's own convention
-            (alt-az: azimuth and elevation as the encoders count them).
+            (alt-az: azimuth and elevation as the encoders count them). An astropy
+            Quantity or Angle is converted to radians; readings beyond two turns
+            (4 pi) in magnitude look like degrees and give an
+            :class:`~pointax.io.InputWarning` (not for :data:`COUNTED_READINGS`).
         target: ``(n, 3)`` observed (true, catalogue) directions, unit vectors in
-            East-North-Up.
+            East-North-Up; or an astropy ``SkyCoord`` in an ``AltAz`` frame, or an
+            ``(n, 2)`` Quantity of azimuth (North through East) and elevation.
         weight: ``(n,)`` relative weights (default 1). A weight of 0 removes an
             observation from the fit without changing array shapes (used for padding).
         convention: name of the encoder angle convention (e.g. 'N-E', 'S-E' for an
@@ -30,8 +41,12 @@ class Observations(eqx.Module):
     convention: str | None = eqx.field(static=True, default=None)
 
     def __init__(self, encoder, target, weight=None, convention: str | None = None):
-        encoder = np.asarray(encoder, np.float64) if not isinstance(encoder, jnp.ndarray) else encoder
-        target = np.asarray(target, np.float64) if not isinstance(target, jnp.ndarray) else target
+        encoder = angles_in_radians(encoder, "encoder") if not isinstance(encoder, jnp.ndarray) else encoder
+        target = directions_enu(target, "target") if not isinstance(target, jnp.ndarray) else target
+        if isinstance(encoder, np.ndarray) and convention not in COUNTED_READINGS:
+            looks = check_not_degrees("the encoder readings", encoder)
+            if looks:
+                warn_input("Observations", None, looks, "encoder", stacklevel=3)
         if encoder.ndim != 2 or encoder.shape[-1] != 2:
             raise ValueError(f"encoder must have shape (n, 2), got {encoder.shape}")
         if target.shape != (encoder.shape[0], 3):

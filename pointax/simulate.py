@@ -10,6 +10,7 @@ from ._x64 import float64
 from .model import Model
 from .observations import Observations
 from .rotations import offset_direction
+from .units import angles_in_radians
 
 __all__ = ["simulate", "encoder_grid"]
 
@@ -25,8 +26,10 @@ def simulate(
 
     Args:
         model: the true pointing model.
-        encoder: ``(n, 2)`` raw encoder angles, radians, in the mount's convention.
-        noise: standard deviation of Gaussian measurement noise on the sky, radians:
+        encoder: ``(n, 2)`` raw encoder angles, radians (or an astropy Quantity), in
+            the mount's convention.
+        noise: standard deviation of Gaussian measurement noise on the sky, radians
+            (or a Quantity, e.g. ``2 * u.arcsec``):
             one value for both axes or ``(across axis 1, along axis 2)`` in the mount
             frame: (cross-elevation, elevation) for alt-az, (dL cos B, dB) for X-Y.
         seed: seed of the NumPy random generator for the noise.
@@ -34,9 +37,11 @@ def simulate(
     Returns:
         :class:`Observations` with the noisy true directions as targets.
     """
-    encoder = np.asarray(encoder, np.float64)
+    encoder = angles_in_radians(encoder, "encoder")
     truth = np.asarray(model(encoder))
-    sigma = np.broadcast_to(np.asarray(noise, np.float64), (2,))
+    if isinstance(noise, tuple):
+        noise = tuple(angles_in_radians(x, "noise") for x in noise)
+    sigma = np.broadcast_to(angles_in_radians(noise, "noise"), (2,))
     offsets = np.random.default_rng(seed).normal(size=(encoder.shape[0], 2)) * sigma
     frame = np.asarray(model.mount.frame)
     target = np.asarray(offset_direction(jnp.asarray(truth @ frame), jnp.asarray(offsets))) @ frame.T

@@ -95,13 +95,25 @@ def leave_one_out(
 
     Returns:
         :class:`LeaveOneOut` with each observation's out-of-sample error.
+
+    Raises:
+        ValueError: fewer than two observations, or folds with no more residuals
+            than free parameters.
     """
     options = options_from(
         options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
     )
     model, obs = prepare(model, data, weights, fixed)
-    if int(np.sum(np.asarray(obs.weight) > 0)) < 2:
+    n_used = int(np.sum(np.asarray(obs.weight) > 0))
+    if n_used < 2:
         raise ValueError("leave-one-out needs at least two observations with positive weight")
+    n_free = len(model.free_parameters)
+    if n_free and 2 * (n_used - 1) <= n_free:
+        raise ValueError(
+            f"leave-one-out: each fold keeps {n_used - 1} observation(s), {2 * (n_used - 1)} residuals for "
+            f"{n_free} free parameters: no fold could estimate a sigma (each would be 0); give more than "
+            f"{n_free // 2 + 1} observations or fix parameters"
+        )
     offsets, folds = _leave_one_out(model, obs, options)
     errors = offset_angle(offsets)
     return LeaveOneOut(offsets=offsets, errors=errors, converged=folds.converged, folds=folds)

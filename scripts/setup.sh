@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up pointax in ./.venv: a virtual environment with pointax (editable), its test
-# tools and the vision extra. Safe to run again: it only installs what is missing.
+# tools, the vision and plot extras, and Debian's chromium (for the report's check).
+# Safe to run again: it only installs what is missing.
 #
 # torch is installed first, pinned to 2.13.0: this machine's pip finds a local CPU
 # build of exactly that version, while any other torch request pulls several GB of
@@ -16,4 +17,10 @@ pip_install() { .venv/bin/python -m pip install --quiet --disable-pip-version-ch
 if ! .venv/bin/python -c "import torch" 2>/dev/null; then
     pip_install "torch==2.13.0"
 fi
-pip_install -e ".[dev,vision]"
+pip_install -e ".[dev,vision,plot]"
+# Headless Chromium (Debian's package) renders the HTML report in tests/test_report.py;
+# best effort: where apt-get cannot install it (not root, no Debian), that test skips.
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium) \
+        >/dev/null 2>&1 || echo "setup.sh: could not install chromium; the report's browser check will skip" >&2
+fi

@@ -236,3 +236,19 @@ def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
     monkeypatch.delenv("POINTAX_JAX_CACHE")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "x"))
     assert default_cache_dir() == tmp_path / "x" / "pointax" / "jax"
+
+
+def test_tpoint_help_and_missing_script_import_no_numerical_library(tmp_path):
+    code = (
+        "import sys\n"
+        "from pointax.cli import main\n"
+        f"assert main(['tpoint', {str(tmp_path / 'missing.ptp')!r}]) == 2\n"
+        "try:\n"
+        "    main(['tpoint', '--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('LOADED', [m for m in ('jax', 'numpy', 'matplotlib') if m in sys.modules])\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert "LOADED []" in proc.stdout, proc.stdout + proc.stderr
+    assert "missing.ptp: No such file or directory" in proc.stderr

@@ -15,7 +15,7 @@ import pytest
 HEAVY = ("astropy", "torch", "kornia", "dask", "optimistix", "lineax")
 
 
-NUMERICAL = HEAVY + ("jax", "jaxlib", "numpy", "scipy", "equinox")
+NUMERICAL = HEAVY + ("jax", "jaxlib", "numpy", "scipy", "equinox", "matplotlib", "tqdm")
 
 
 def run_fresh(code: str, modules=NUMERICAL) -> tuple[subprocess.CompletedProcess, dict[str, bool]]:
@@ -120,6 +120,8 @@ def run_pointax(*argv: str) -> tuple[subprocess.CompletedProcess, dict[str, bool
         ("fit-network", "--help"),
         ("centroid", "--help"),
         ("compare", "--help"),
+        ("plot", "--help"),
+        ("report", "--help"),
     ],
 )
 def test_help_imports_no_numerical_library(argv):
@@ -139,6 +141,10 @@ def test_help_imports_no_numerical_library(argv):
         (("compare", "/nonexistent.dat"), "pointax compare: error: /nonexistent.dat: No such file"),
         (("fit", "x.dat", "--solver", "newton"), "invalid choice: 'newton'"),
         (("fit", "x.dat", "--bogus"), "unrecognized arguments: --bogus"),
+        (("plot", "/nonexistent.dat", "-o", "x.png"), "pointax plot: error: /nonexistent.dat: No such file"),
+        (("plot", "x.dat", "-o", "x.jpg"), "pointax plot: error: x.jpg: cannot tell the graphics format"),
+        (("plot", "x.dat", "--kind", "pie", "-o", "x.png"), "invalid choice: 'pie'"),
+        (("report", "/nonexistent.dat", "-o", "r.html"), "pointax report: error: /nonexistent.dat: No such file"),
         (("fitt", "x.dat"), "invalid choice: 'fitt'"),
     ],
 )
@@ -169,6 +175,21 @@ def test_the_console_script_entry_point_is_pointax_cli_main():
     project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
     assert project["project"]["scripts"]["pointax"] == "pointax.cli:main"
     assert callable(main)
+
+
+def test_plot_kinds_of_the_parser_equal_the_librarys():
+    from pointax.cli.plot import PLOT_KINDS
+    from pointax.cli.report import REPORT_KINDS
+    from pointax.plots import FIT_KINDS
+    from pointax.report import REPORT_FIGURES
+
+    assert PLOT_KINDS == tuple(FIT_KINDS)
+    assert REPORT_KINDS == REPORT_FIGURES
+
+
+def test_importing_pointax_plots_imports_no_matplotlib():
+    loaded = loaded_after("import pointax.plots")
+    assert not loaded["matplotlib"], imported(loaded)
 
 
 def test_the_light_copies_of_library_names_equal_the_library():

@@ -31,6 +31,7 @@ from ..fitting.result import FitResult
 from ..fitting.solo import fit
 from ..model import Model
 from ..observations import Observations
+from ..progress import progress_bar
 from ..units import ARCSEC
 from .families import family_model
 from .folds import evaluation_scheme
@@ -299,6 +300,7 @@ def compare(
     form: str = "linear",
     solver: str = "lm",
     max_steps: int = 256,
+    progress: bool = False,
 ) -> Comparison:
     """Fit several model families to the same stars and compare them fairly.
 
@@ -318,6 +320,8 @@ def compare(
             others (the first-axis angle residual grows as ``sec E`` towards the zenith).
         naming, form: how family names resolve (:func:`family_model`).
         solver, max_steps: passed to :func:`pointax.fit`.
+        progress: show a progress bar of the fits (families and folds) on standard
+            error when it is a terminal (:func:`pointax.progress.progress_bar`).
 
     Returns:
         A :class:`Comparison`: ``.table()`` prints it like the paper's Table 3,
@@ -357,8 +361,12 @@ def compare(
         r_out, cos_out = None, None
     rows.append(_row(BEFORE, bare, None, 0, r_bare[fit_rows], r_out, cos(fit_rows), cos_out, (), True))
 
+    extra_fits = sum(1 for f_rows, _ in scheme.splits if not np.array_equal(f_rows, fit_rows))
+    bar = progress_bar(len(models) * (1 + extra_fits), "compare", "fit", enabled=progress)
     for label, model in models.items():
+        bar.set_description(f"compare {label}")
         result = fit(model, obs, weights=fit_rows.astype(np.float64), solver=solver, max_steps=max_steps)
+        bar.update()
         warnings_ = list(result.warnings())
         converged = bool(result.converged)
         r_in = np.asarray(result.residuals)[fit_rows]
@@ -372,6 +380,7 @@ def compare(
                     fitted = result.model
                 else:
                     fold = fit(model, obs, weights=f_rows.astype(np.float64), solver=solver, max_steps=max_steps)
+                    bar.update()
                     fitted = fold.model
                     if not bool(fold.converged):
                         converged = False
@@ -383,6 +392,7 @@ def compare(
             _row(label, result.model, result, n_params, r_in, r_out, cos(fit_rows), cos_out, warnings_, converged)
         )
 
+    bar.close()
     return Comparison(
         rows=tuple(rows),
         scheme=scheme.kind,

@@ -27,6 +27,7 @@ from ..fitting.residuals import residuals
 from ..fitting.statistics import DEGENERATE_RCOND
 from ..model import Model
 from ..observations import Observations
+from ..progress import progress_bar
 from ..terms.base import Term
 from ..units import ARCSEC, UNITS
 from .families import family_model
@@ -350,6 +351,7 @@ def build_model(
     per_axis: str | None = None,
     naming: str = "tpoint",
     form: str = "linear",
+    progress: bool = False,
 ) -> ModelBuild:
     """Build a model automatically, in the spirit of TPOINT's FAUTO: add candidate terms
     that are significant and predict unseen stars better, drop terms that are not
@@ -392,6 +394,8 @@ def build_model(
         max_steps: most add and drop steps.
         per_axis: as for :func:`pointax.compare` (what the RMS measures on the first axis).
         naming, form: how names resolve (:func:`family_model`).
+        progress: show a progress bar (candidates screened, terms in the model) on
+            standard error when it is a terminal (:func:`pointax.progress.progress_bar`).
 
     Returns:
         :class:`ModelBuild`: the final model (fitted on the in-sample stars), the path
@@ -459,13 +463,16 @@ def build_model(
     visited = {active}
     stopped = f"max_steps={max_steps} reached"
     steps = 0
+    bar = progress_bar(None, "build_model", "candidate", enabled=progress)
     while steps < max_steps:
         # 1. Add the candidate that predicts best among the significant ones.
         best = None
+        bar.set_description(f"build_model: step {steps + 1}, {len(state.active)} terms")
         for t in candidate_ids:
             if t in state.active or (state.active | {t}) in visited:
                 continue
             zt, out, degenerate = builder.screen(state, t)
+            bar.update()
             if degenerate or zt < add_threshold or not out < state.rms_out:
                 continue
             if best is None or out < best[1]:
@@ -519,6 +526,7 @@ def build_model(
             )
             break
 
+    bar.close()
     # The active terms, and the start's terms without free parameters (all fixed).
     final_terms = [
         i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))

@@ -7,6 +7,18 @@
     pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS]
     pointax centroid FRAME... [--json] [--method auto|intensity|limb]
     pointax compare DATA --families basic,harmonic,... [--holdout F | --folds K] [--json]
+    pointax plot DATA [fit options] [--kind summary|residuals|sky|...] [--tpoint 'G S A'] -o FILE.png
+    pointax report DATA [fit options] -o report.html
+    pointax tpoint [SCRIPT ...] [--mount altaz|equatorial] [--azimuth S-E] [--residuals sky|tpoint]
+
+Exit status, the same for every subcommand (:mod:`pointax.cli.common`): **0** success;
+**1** the input was good but some item did not succeed (a fit that did not converge, a
+direction not commanded, a frame without a usable sun, a site that failed); **2** bad
+input (a missing or malformed file, option or value; the message names the file, line
+and field). Warnings about input that was accepted but looks wrong (rows written twice,
+lines after END, a nominal model used because none was given) go to standard error as
+``pointax: warning: ...`` and do not change the exit status. ``pointax --version``
+prints the version without importing any numerical library.
 
 ``pointax fit`` reads a TPOINT input file, fits the terms (TPOINT's eight basic alt-az
 terms by default) and prints the TPOINT-style report, or with ``--json`` one JSON
@@ -55,6 +67,15 @@ of the top-left pixel, x right, y down), the disk radius, the method, ``status``
 ``pointax compare`` fits several model families to the same run and prints a table
 shaped like the level-mount paper's Table 3 (:func:`pointax.compare`).
 
+``pointax fit`` masks rows with ``--mask 17,19-21`` (numbers from 1, file order),
+``--mask-above ARCSEC`` (TPOINT's MASK R > x: fit, mask, refit) and flags outliers with
+``--reject SIGMAS`` (robust fit); ``--list`` prints the residual listing and ``--json``
+has per-observation entries (:mod:`pointax.listing`, :mod:`pointax.masking`).
+
+``pointax tpoint`` runs TPOINT commands (INDAT, USE, FIT, MASK, OUTMOD, PROC, ...) from
+script files in turn or from standard input (:mod:`pointax.cli.tpoint`,
+:mod:`pointax.procedures`).
+
 The run's format is told from the file when ``--format`` is not given (a folder is a
 PAINT heliostat; :func:`pointax.io.load_run` reads every format). A missing input file,
 a mistyped option or an unknown name is reported (exit status 2) before any numerical
@@ -62,7 +83,9 @@ library is imported: the parser is built from :mod:`pointax.cli.choices`, and ea
 subcommand's module imports the library only in its ``run_*`` function.
 
 One module per subcommand: :mod:`pointax.cli.fit`, :mod:`pointax.cli.command`,
-:mod:`pointax.cli.fit_network`, :mod:`pointax.cli.centroid`, :mod:`pointax.cli.compare`.
+:mod:`pointax.cli.fit_network`, :mod:`pointax.cli.centroid`, :mod:`pointax.cli.compare`,
+:mod:`pointax.cli.plot` (figures of a fit, :mod:`pointax.plots`), :mod:`pointax.cli.report` (an
+HTML report, :mod:`pointax.report`), :mod:`pointax.cli.tpoint` (TPOINT procedures).
 
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
@@ -77,19 +100,38 @@ import sys
 
 from .centroid import add_centroid_parser
 from .command import add_command_parser
+from .common import print_warnings
 from .compare import add_compare_parser
 from .fit import add_fit_parser
 from .fit_network import add_fit_network_parser
+from .plot import add_plot_parser
+from .report import add_report_parser
+from .tpoint import add_tpoint_parser
 
 __all__ = ["main", "build_parser"]
 
-SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser)
+_PROG = "pointax"
+
+SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser, add_tpoint_parser, add_plot_parser, add_report_parser)
 """Each adds its subcommand to the parser, with its ``run`` function as a default."""
+
+
+def _version() -> str:
+    """The installed distribution's version, else the package's (no JAX import)."""
+    try:
+        from importlib.metadata import version
+
+        return version("pointax")
+    except Exception:  # not installed: the source tree's own number
+        from .. import __version__
+
+        return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pointax`` parser (imports no numerical library)."""
     parser = argparse.ArgumentParser(prog="pointax", description="Telescope and sun-tracker pointing models in JAX.")
+    parser.add_argument("--version", action="version", version=f"pointax {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for add in SUBCOMMANDS:
         add(sub)
@@ -99,6 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """The ``pointax`` command; returns the exit status."""
     args = build_parser().parse_args(argv)
+    print_warnings(_PROG)  # input warnings (file, line, field) on standard error
     return args.run(args)
 
 

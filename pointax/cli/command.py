@@ -116,6 +116,7 @@ def _command_model(args):
     import numpy as np
 
     from .. import terms as term_library
+    from ..io.errors import warn_input
     from ..io.tpoint import read_model
     from ..mount_models import AltAz, Turntable
     from ..units import UNITS
@@ -133,7 +134,15 @@ def _command_model(args):
         else:
             model = AltAz(term_library.tpoint(args.terms or term_library.BASIC_ALTAZ, form=args.form), azimuth=args.azimuth)
         default_limits = None
-    model = model.set(**_parse_params(args.params, model))
+    given = _parse_params(args.params, model)
+    if not args.model and not given:
+        warn_input(
+            "--model",
+            None,
+            f"no --model file and no --params: commanding the nominal model ({model.describe()}, every "
+            "parameter 0), i.e. a mount without pointing errors",
+        )
+    model = model.set(**given)
     if args.limits is None:
         return model, default_limits
     parts = [p.strip() for p in args.limits.split(",")]
@@ -141,9 +150,19 @@ def _command_model(args):
         raise ValueError(f"--limits: expected a1min,a1max,a2min,a2max in degrees, got {args.limits!r}")
     try:
         # An empty field leaves that end of the axis open, e.g. "0,360,," limits axis 1 only.
-        lim = [np.radians(float(p)) if p else None for p in parts]
+        deg = [float(p) if p else None for p in parts]
     except ValueError:
         raise ValueError(f"--limits: not a number in {args.limits!r} (degrees; leave a field empty for no limit)") from None
+    for k, value in enumerate(deg):
+        if value is not None and not math.isfinite(value):
+            raise ValueError(f"--limits: field {k + 1} is {parts[k]!r}, not a finite number of degrees")
+        if value is not None and abs(value) > 720.0:
+            raise ValueError(f"--limits: field {k + 1} is {value:g} deg, beyond two turns (limits are in degrees)")
+    for axis in (0, 1):
+        lo, hi = deg[2 * axis], deg[2 * axis + 1]
+        if lo is not None and hi is not None and lo > hi:
+            raise ValueError(f"--limits: axis {axis + 1} is inverted: min {lo:g} deg is above max {hi:g} deg")
+    lim = [None if v is None else float(np.radians(v)) for v in deg]
     return model, ((lim[0], lim[1]), (lim[2], lim[3]))
 
 

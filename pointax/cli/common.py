@@ -6,9 +6,19 @@ from __future__ import annotations
 import errno
 import os
 import sys
+import warnings
 from collections.abc import Iterable
 
-__all__ = ["error", "missing_input", "os_error_text"]
+__all__ = ["error", "missing_input", "os_error_text", "print_warnings", "EXIT_OK", "EXIT_SOME_FAILED", "EXIT_BAD_INPUT"]
+
+EXIT_OK = 0
+"""Exit status: everything succeeded."""
+EXIT_SOME_FAILED = 1
+"""Exit status: the input was good, but some item did not succeed (a fit that did not
+converge, a direction not commanded, a bad frame, a site that failed)."""
+EXIT_BAD_INPUT = 2
+"""Exit status: bad input (a file, option or value that could not be used); the message
+names the file, line and field."""
 
 
 def error(prefix: str, message: object) -> int:
@@ -31,3 +41,16 @@ def missing_input(paths: Iterable[str | os.PathLike | None]) -> str | None:
 def os_error_text(err: OSError, fallback: object) -> str:
     """``'FILE: reason'`` for an OSError (its own file name when it has one)."""
     return f"{err.filename or fallback}: {err.strerror or err}"
+
+
+def print_warnings(prefix: str = "pointax") -> None:
+    """Print every Python warning as ``{prefix}: warning: {message}`` on standard error,
+    each time it is issued (pointax's input warnings name file, line and field)."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{prefix}: warning: {message}", file=sys.stderr)
+
+    from ..io.errors import PointaxWarning
+
+    warnings.showwarning = show
+    warnings.simplefilter("always", PointaxWarning)

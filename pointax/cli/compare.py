@@ -156,6 +156,7 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on a terminal)")
     p.set_defaults(run=run_compare)
     return p
 
@@ -211,6 +212,7 @@ def _comparison(args):
         naming=naming,
         form=args.form,
         max_steps=args.max_steps,
+        progress=not getattr(args, "quiet", False),
         **scheme,
     )
     return result, fmt, mount

@@ -3,17 +3,35 @@
 The run is a TPOINT input file, an RTS2 gpoint alt-az file or a PAINT heliostat folder;
 ``--format`` names it, or it is told from the file (:func:`pointax.io.detect_format`).
 See :mod:`pointax.cli` for the output and exit status.
+
+Other subcommands that fit a run the same way (``pointax plot``, ``pointax report``)
+reuse the pieces here: :func:`add_fit_options` adds the run and every fit option (not
+the output options ``--json``, ``--list``, ``--plot``, ``--write-model``),
+:func:`fit_from_args` loads the run and fits it (masks included) into a
+:class:`FitOutcome`, and :func:`guarded` turns input errors into exit status 2.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+from collections.abc import Callable
+from typing import Any
 
 from . import choices
 from .common import error, missing_input, os_error_text
 
-__all__ = ["FIT_FORMATS", "add_fit_parser", "run_fit"]
+__all__ = [
+    "FIT_FORMATS",
+    "FitOutcome",
+    "add_fit_options",
+    "add_fit_parser",
+    "fit_from_args",
+    "guarded",
+    "masked_observations",
+    "run_fit",
+]
 
 FIT_FORMATS = ("tpoint", "paint", "gpoint")
 """The run formats ``pointax fit`` fits."""
@@ -21,9 +39,21 @@ FIT_FORMATS = ("tpoint", "paint", "gpoint")
 _PREFIX = "pointax"
 
 
-def add_fit_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``pointax fit`` to an ``argparse`` sub-parser set; returns its parser."""
-    p = subparsers.add_parser("fit", help="fit a pointing model to a pointing run and print the report")
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
+    return value
+
+
+def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add the run (positional ``data``) and every option of ``pointax fit`` but the
+    output ones (``--json``, ``--list``, ``--plot``, ``--write-model``) to ``parser``;
+    returns it. Imports no numerical library."""
+    p = parser
     p.add_argument("data", help="pointing run: TPOINT input file, RTS2 gpoint file or PAINT heliostat folder")
     p.add_argument(
         "--terms",
@@ -61,31 +91,110 @@ def add_fit_parser(subparsers) -> argparse.ArgumentParser:
         "--loss",
         choices=sorted(choices.LOSSES),
         default=None,
-        help="least-squares loss; a robust one flags outliers (default: linear for tpoint, cauchy for paint)",
+        help="least-squares loss; a robust one flags outliers (default: linear for tpoint, cauchy for paint; "
+        "cauchy when --reject is given)",
     )
     p.add_argument(
         "--focal-spot", choices=choices.FOCAL_SPOT_METHODS, default="HeliOS", help="paint: focal-spot method (default: HeliOS)"
     )
     p.add_argument("--solver", choices=sorted(choices.SOLVERS), default="lm", help="least-squares solver (default: lm)")
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
+    p.add_argument(
+        "--mask",
+        metavar="ROWS",
+        default="",
+        help="observations to leave out of the fit (weight 0; they stay in the listing), by row number counted "
+        "from 1 in file order as TPOINT numbers them, e.g. 17,19-21",
+    )
+    p.add_argument(
+        "--mask-above",
+        metavar="ARCSEC",
+        type=_positive_float,
+        default=None,
+        help="TPOINT's MASK R > ARCSEC: fit, mask the observations whose on-sky residual exceeds ARCSEC, refit",
+    )
+    p.add_argument(
+        "--reject",
+        metavar="SIGMAS",
+        type=_positive_float,
+        default=None,
+        help="robust fit: flag observations whose residual norm exceeds SIGMAS robust standard deviations "
+        "(median residual norm / 1.1774) and leave them out of the final least-squares fit "
+        "(default 3 with a robust --loss; alone it implies --loss cauchy)",
+    )
+    return p
+
+
+def add_fit_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``pointax fit`` to an ``argparse`` sub-parser set; returns its parser."""
+    p = subparsers.add_parser("fit", help="fit a pointing model to a pointing run and print the report")
+    add_fit_options(p)
     p.add_argument("--write-model", metavar="FILE", help="also write the fitted model as a TPOINT .mod file")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.add_argument(
+        "--list",
+        action="store_true",
+        help="also print the residual listing (TPOINT's SLIST: per observation, angles and residuals)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object instead of the report (with per-observation entries under 'observations')",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="also draw the fit's summary figure (residuals, sky map, histogram) to FILE: .png, .svg, .pdf, "
+        ".ps or .eps, by the extension (needs matplotlib: pip install 'pointax[plot]')",
+    )
     p.set_defaults(run=run_fit)
     return p
+
+
+@dataclasses.dataclass
+class FitOutcome:
+    """What :func:`fit_from_args` loaded and fitted.
+
+    Attributes:
+        fmt: the run's format ('tpoint', 'gpoint' or 'paint').
+        run: the run as read (:class:`pointax.io.TpointRun`, ``GpointRun`` or
+            ``PaintRun``).
+        model: the model fitted (before the fit: terms, fixed names, start values).
+        result: the final :class:`pointax.FitResult` (for paint, the calibration's fit).
+        observations: the run's :class:`pointax.Observations` (file weights, no mask).
+        masked: ``(n,)`` bool, observations given weight 0 (``--mask`` and
+            ``--mask-above``), or None for paint.
+        first: for ``--mask-above``, the fit before masking (None otherwise).
+        calibration: for paint, the :class:`pointax.HeliostatCalibration` (else None).
+    """
+
+    fmt: str
+    run: Any
+    model: Any
+    result: Any
+    observations: Any
+    masked: Any = None
+    first: Any = None
+    calibration: Any = None
+
+
+def guarded(args: argparse.Namespace, body: Callable[[argparse.Namespace], int], prefix: str = _PREFIX) -> int:
+    """Run ``body(args)`` after checking that ``args.data`` exists; a bad input
+    (ValueError, KeyError, OSError) prints ``prefix: error: ...`` and gives 2."""
+    missing = missing_input([args.data])
+    if missing:
+        return error(prefix, missing)
+    try:
+        return body(args)
+    except (ValueError, KeyError) as err:
+        return error(prefix, err)
+    except OSError as err:
+        return error(prefix, os_error_text(err, args.data))
 
 
 def run_fit(args: argparse.Namespace) -> int:
     """Run ``pointax fit`` for parsed ``args``; returns the exit status (0 converged,
     1 not converged, 2 bad input, with the message on standard error)."""
-    missing = missing_input([args.data])
-    if missing:
-        return error(_PREFIX, missing)
-    try:
-        return _fit(args)
-    except (ValueError, KeyError) as err:
-        return error(_PREFIX, err)
-    except OSError as err:
-        return error(_PREFIX, os_error_text(err, args.data))
+    return guarded(args, _fit)
 
 
 def _format(args) -> str:
@@ -101,30 +210,54 @@ def _format(args) -> str:
     return fmt
 
 
-def _fit(args) -> int:
+def _loss(args, fmt: str) -> str:
+    if args.loss is not None:
+        if args.loss == "linear" and args.reject is not None:
+            raise ValueError("--reject flags outliers of a robust fit; it does not apply to --loss linear")
+        return args.loss
+    if fmt == "paint" or args.reject is not None:
+        return "cauchy"
+    return "linear"
+
+
+def fit_from_args(args: argparse.Namespace) -> FitOutcome:
+    """Load the run named by ``args`` (from :func:`add_fit_options`) and fit it.
+
+    Masks: ``--mask`` rows get weight 0; with ``--mask-above`` the run is fitted, the
+    observations whose on-sky residual exceeds the limit are masked as well and the
+    run is refitted (:func:`pointax.masking.mask_above`).
+
+    Raises:
+        ValueError, KeyError, OSError: for bad input (the message names the file, line
+            and field, or the option).
+    """
     fmt = _format(args)
+    output_only = getattr(args, "write_model", None)
     if fmt == "paint":
         _check_paint_options(args)
     elif fmt == "gpoint" and args.azimuth != "N-E":
         raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
+    loss = _loss(args, fmt)
 
     from ..compilation_cache import enable_compilation_cache
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     if fmt == "paint":
-        return _fit_paint(args)
+        return _fit_paint(args, loss)
+
+    import numpy as np
 
     from .. import terms as term_library
-    from ..fitting import fit
+    from ..fitting import FitOptions, fit
     from ..io.load import load_run
-    from ..io.tpoint import write_model
+    from ..masking import mask_above, parse_rows
     from ..mount_models import AltAz
 
     if fmt == "gpoint":
         run = load_run(args.data, "gpoint")
         spec = args.terms if args.terms is not None else term_library.GPOINT_ALTAZ_TERMS
         terms = term_library.gpoint_terms(spec, form=args.form)
-        if args.write_model and any(t.name != t.name.upper() for t in terms):
+        if output_only and any(t.name != t.name.upper() for t in terms):
             raise ValueError("--write-model writes TPOINT model files; gpoint's lower-case terms have no TPOINT name there")
         # gpoint's names are case-sensitive (ie is not IE): no upper-casing of --fix.
         fixed = term_library.gpoint_names(args.fix)
@@ -133,39 +266,121 @@ def _fit(args) -> int:
         terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
         fixed = term_library.names(args.fix)
     model = AltAz(terms, azimuth=run.azimuth, fixed=fixed, residual_form=args.residuals)
-    result = fit(model, run, solver=args.solver, max_steps=args.max_steps, loss=args.loss or "linear")
+    options = FitOptions(
+        solver=args.solver,
+        max_steps=args.max_steps,
+        loss=loss,
+        reject=args.reject if args.reject is not None else FitOptions().reject,
+    )
+    obs = run.observations
+    n = len(run)
+    masked = np.zeros(n, bool)
+    if args.mask:
+        masked[parse_rows(args.mask, n, option="--mask")] = True
+    base = np.asarray(obs.weight, np.float64)
+    weights = np.where(masked, 0.0, base) if masked.any() else None
+    result = fit(model, run, weights=weights, options=options)
+    first = None
+    if args.mask_above is not None:
+        first = result
+        masked = masked | mask_above(result.model, obs, args.mask_above, masked=masked)
+        result = fit(model, run, weights=np.where(masked, 0.0, base), options=options)
+    return FitOutcome(fmt=fmt, run=run, model=model, result=result, observations=obs, masked=masked, first=first)
+
+
+def _fit(args) -> int:
+    outcome = fit_from_args(args)
+    if outcome.fmt == "paint":
+        return _print_paint(args, outcome)
+    result = outcome.result
+    if args.plot:
+        from ..plots.save import format_of
+
+        format_of(args.plot)  # an unknown extension fails before the fit is printed
     if args.write_model:
+        from ..io.tpoint import write_model
+
         write_model(args.write_model, result)
+    if args.plot:
+        _plot(args.plot, outcome)
     if args.json:
-        out = {"file": args.data, "caption": run.caption, "form": args.form, "residuals": args.residuals, **result.to_dict()}
+        from ..listing import observation_entries
+
+        out = {
+            "file": args.data,
+            "caption": outcome.run.caption,
+            "form": args.form,
+            "residuals": args.residuals,
+            **result.to_dict(),
+            "masked": [int(i) for i in outcome.masked.nonzero()[0]],
+            "observations": observation_entries(outcome.run, result, outcome.masked),
+        }
         print(json.dumps(out, indent=2))
     else:
         print(result.report())
+        if args.list:
+            from ..listing import format_listing
+
+            print()
+            print(format_listing(outcome.run, result, outcome.masked))
     return 0 if bool(result.converged) else 1
+
+
+def masked_observations(outcome: FitOutcome):
+    """The run's observations with the masked ones at weight 0 (plots draw them as
+    masked)."""
+    import numpy as np
+
+    from ..observations import Observations
+
+    obs = outcome.observations
+    weight = np.where(outcome.masked, 0.0, np.asarray(obs.weight, np.float64))
+    return Observations(obs.encoder, obs.target, weight, obs.convention)
+
+
+def _plot(path: str, outcome: FitOutcome) -> None:
+    import sys
+
+    from ..plots import fit_figure, save_figure
+
+    figure = fit_figure(outcome.result, masked_observations(outcome), "summary")
+    print(f"{_PREFIX}: wrote {save_figure(figure, path)}", file=sys.stderr)
 
 
 def _check_paint_options(args) -> None:
     for option, value, default in (
-        ("--write-model", args.write_model, None),
+        ("--write-model", getattr(args, "write_model", None), None),
         ("--form", args.form, "linear"),
         ("--azimuth", args.azimuth, "N-E"),
         ("--residuals", args.residuals, "sky"),
+        ("--mask", args.mask, ""),
+        ("--mask-above", args.mask_above, None),
+        ("--list", getattr(args, "list", False), False),
+        ("--plot", getattr(args, "plot", None), None),
     ):
         if value != default:
-            raise ValueError(f"{option} applies to TPOINT runs, not to --format paint")
+            raise ValueError(f"{option} applies to TPOINT runs and gpoint runs, not to --format paint")
 
 
-def _fit_paint(args) -> int:
+def _fit_paint(args, loss: str) -> FitOutcome:
     from ..heliostat import calibrate_heliostat
     from ..io.load import load_run
 
     run = load_run(args.data, "paint", focal_spot=args.focal_spot)
     terms = args.terms if args.terms is not None else choices.HELIOSTAT_DEFAULT
     fixed = [name.strip() for name in args.fix.split(",") if name.strip()]
-    cal = calibrate_heliostat(run, terms, loss=args.loss or "cauchy", solver=args.solver, max_steps=args.max_steps, fixed=fixed)
+    reject = {} if args.reject is None else {"reject": args.reject}
+    cal = calibrate_heliostat(run, terms, loss=loss, solver=args.solver, max_steps=args.max_steps, fixed=fixed, **reject)
+    return FitOutcome(
+        fmt="paint", run=run, model=cal.result.model, result=cal.result, observations=getattr(run, "observations", None),
+        calibration=cal,
+    )
+
+
+def _print_paint(args, outcome: FitOutcome) -> int:
+    cal = outcome.calibration
     if args.json:
         print(json.dumps({"directory": args.data, **cal.to_dict()}, indent=2))
     else:
         print(cal.report())
     return 0 if bool(cal.result.converged) else 1
-

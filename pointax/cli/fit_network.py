@@ -49,7 +49,8 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
         return fail(missing)
 
     from ..compilation_cache import enable_compilation_cache
-    from ..network import ManifestError, ProgressBar, fit_network
+    from ..network import ManifestError, fit_network
+    from ..progress import progress_bar
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     client = None
@@ -61,13 +62,14 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
             except ImportError:
                 raise ValueError('--scheduler needs Dask distributed: pip install "dask[distributed]"') from None
             client = Client(args.scheduler)
-        progress = False if args.quiet else ProgressBar(0, stream=stderr)
+        # A tqdm bar on standard error when it is a terminal (silent in pipes and logs).
+        progress = progress_bar(0, "fitting", "site", enabled=not args.quiet, stream=stderr)
         result = fit_network(
             args.manifest,
             solver=args.solver,
             max_steps=args.max_steps,
             chunk_size=args.chunk_size,
-            progress=progress,
+            progress=progress if progress.active else False,
             client=client,
         )
     except (ManifestError, ValueError) as err:
@@ -75,7 +77,7 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
     except OSError as err:
         return fail(os_error_text(err, args.manifest))
     finally:
-        if progress:
+        if progress is not None:
             progress.close()
         if client is not None:
             client.close()

@@ -16,6 +16,8 @@ least-squares fit of the rest, so values, sigmas and statistics keep TPOINT's me
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -27,9 +29,20 @@ from ..observations import Observations
 from .options import SOLVER_NAMES, FitOptions
 from .residuals import residuals
 from .result import FitResult
-from .statistics import normalised_weights, robust_sigma, statistics, svd_unit_covariance
+from .statistics import Statistics, normalised_weights, robust_sigma, statistics, svd_unit_covariance
 
-__all__ = ["SOLVERS", "LOSSES", "fit_core", "least_squares", "restrict", "free_mask", "result_from_covariance"]
+__all__ = [
+    "SOLVERS",
+    "LOSSES",
+    "fit_core",
+    "least_squares",
+    "gauss_newton_step",
+    "Step",
+    "fit_result",
+    "restrict",
+    "free_mask",
+    "result_from_covariance",
+]
 
 SOLVERS = {
     "lm": (SOLVER_NAMES["lm"], optx.LevenbergMarquardt),
@@ -131,41 +144,107 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         outliers = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * scale)
     used = given & ~outliers
     weight = normalised_weights(obs.weight, used)
-    sol, weighted = least_squares(model, free, obs, weight, options)
-    y = jnp.where(free, sol.value, model.values("all"))
-    jac = jax.jacfwd(lambda y: weighted(y).reshape(-1))(y)
-    unit_cov, degenerate = svd_unit_covariance(jac, free)
+    sol, _ = least_squares(model, free, obs, weight, options)
     # One Gauss-Newton step from the solver's answer (exact for residuals affine in the
     # parameters): the solver stops anywhere within its tolerances, and where it stops
     # depends on rounding, so without it the same model fitted inside unions of other
     # sizes (:mod:`pointax.fitting.structure`) differed by up to 1.4e-11 rad.
-    polished = y - unit_cov @ (jac.T @ weighted(y).reshape(-1))
-    y = jnp.where(free & jnp.all(jnp.isfinite(polished)), polished, y)
-    fitted = model.with_values(y)
-    r = residuals(fitted, obs)  # outliers keep their residuals; statistics skip them
-    rw = r * jnp.sqrt(weight)[:, None]
-    stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
-    finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
-    converged = (sol.result == optx.RESULTS.successful) & finite
-    params = model.parameters
-    return FitResult(
-        model=fitted,
-        values=y,
-        **stats._asdict(),  # n_obs, sky_rms, popn_sd, covariance, sigmas, correlation
-        residuals=r,
-        used=used,
+    step = gauss_newton_step(model, free, obs, weight, used, jnp.where(free, sol.value, model.values("all")))
+    return fit_result(
+        step.model,
+        step.values,
+        step.statistics,
+        step.residuals,
+        used,
+        step.degenerate,
         iterations=iterations + sol.stats["num_steps"],
-        converged=converged,
+        converged=(sol.result == optx.RESULTS.successful) & step.finite,
         result=sol.result,
-        degenerate=degenerate,
-        outliers=outliers,
-        robust_scale=scale,
-        robust_converged=robust_ok,
-        names=tuple(p.name for p in params),
-        units=tuple(p.unit for p in params),
         solver=options.solver,
         loss=options.loss,
         reject=options.reject if rho is not None else 0.0,
+        outliers=outliers,
+        robust_scale=scale,
+        robust_converged=robust_ok,
+        every_parameter=True,
+    )
+
+
+class Step(NamedTuple):
+    """One Gauss-Newton step of a least-squares fit (:func:`gauss_newton_step`)."""
+
+    model: Model
+    """The model at the new values."""
+    values: Float[Array, " m"]
+    """Every parameter's new value, model order."""
+    change: Float[Array, " m"]
+    """What the step added to each free parameter (0 where it was not finite)."""
+    residuals: Float[Array, "n 2"]
+    """Residuals at the new values (unweighted, every observation)."""
+    statistics: Statistics
+    """TPOINT's statistics: residuals at the new values, ``(J^T J)^-1`` at the old."""
+    degenerate: Bool[Array, " m"]
+    finite: Bool[Array, ""]
+    """The new values and their used residuals are finite."""
+    step_finite: Bool[Array, ""]
+    """The step itself was finite (else the values stayed)."""
+
+
+def gauss_newton_step(model: Model, free: Bool[Array, " m"], obs: Observations, weight, used, y) -> Step:
+    """One linearised least-squares adjustment of the ``free`` parameters from the values
+    ``y`` (``(M,)``, every parameter of ``model``): ``y - (J^T J)^-1 J^T r(y)`` with ``r``
+    the residuals times the square roots of ``weight`` and ``J`` their Jacobian (the
+    fixed parameters' columns are zero and kept out of the inverse,
+    :func:`svd_unit_covariance`). The polishing step of :func:`fit_core`, and TPOINT's
+    FIT (:mod:`pointax.procedures`)."""
+    y0 = model.values("all")
+    sqrt_w = jnp.sqrt(weight)[:, None]
+
+    def weighted(y):
+        return (residuals(model.with_values(jnp.where(free, y, y0)), obs) * sqrt_w).reshape(-1)
+
+    jac = jax.jacfwd(weighted)(y)
+    unit_cov, degenerate = svd_unit_covariance(jac, free)
+    change = jnp.where(free, -(unit_cov @ (jac.T @ weighted(y))), 0.0)
+    step_finite = jnp.all(jnp.isfinite(change))
+    change = jnp.where(step_finite, change, 0.0)
+    y = y + change
+    fitted = model.with_values(y)
+    r = residuals(fitted, obs)  # outliers keep their residuals; statistics skip them
+    rw = r * sqrt_w
+    stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
+    finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
+    return Step(fitted, y, change, r, stats, degenerate, finite, step_finite)
+
+
+def fit_result(
+    fitted: Model, values, stats: Statistics, residuals, used, degenerate, *, iterations, converged, result, solver,
+    loss="linear", reject=0.0, outliers=None, robust_scale=0.0, robust_converged=True, every_parameter=False,
+) -> FitResult:  # fmt: skip
+    """A :class:`FitResult` over the free parameters of ``fitted`` (with
+    ``every_parameter``: over all of them, as :func:`fit_core`'s; ``values`` theirs, in
+    order) from its pieces: TPOINT's ``stats`` (:func:`pointax.fitting.statistics.statistics`),
+    the ``(n, 2)`` ``residuals``, the ``used`` observations, the ``degenerate`` parameters,
+    and how the solver ended."""
+    params = fitted.parameters if every_parameter else fitted.free_parameters
+    return FitResult(
+        model=fitted,
+        values=values,
+        **stats._asdict(),  # n_obs, sky_rms, popn_sd, covariance, sigmas, correlation
+        residuals=residuals,
+        used=used,
+        iterations=jnp.asarray(iterations),
+        converged=converged,
+        result=result,
+        degenerate=degenerate,
+        outliers=jnp.zeros(used.shape, bool) if outliers is None else outliers,
+        robust_scale=jnp.asarray(robust_scale),
+        robust_converged=jnp.asarray(robust_converged),
+        names=tuple(p.name for p in params),
+        units=tuple(p.unit for p in params),
+        solver=solver,
+        loss=loss,
+        reject=reject,
     )
 
 
@@ -254,24 +333,18 @@ def result_from_covariance(
         scale: the standard deviation the covariance is scaled by (default: this fit's
             Sky RMS, as TPOINT's sigmas).
     """
-    params = fitted.free_parameters
-    m = len(params)
+    m = len(fitted.free_parameters)
     stats = statistics(weighted, used, m, unit_covariance, None, scale)
     ok = converged & jnp.all(jnp.isfinite(values)) & jnp.isfinite(stats.sky_rms)
-    return FitResult(
-        model=fitted,
-        values=values,
-        **stats._asdict(),  # n_obs, sky_rms, popn_sd, covariance, sigmas, correlation
-        residuals=residuals,
-        used=used,
-        iterations=jnp.asarray(iterations),
+    return fit_result(
+        fitted,
+        values,
+        stats,
+        residuals,
+        used,
+        jnp.zeros((m,), bool),
+        iterations=iterations,
         converged=ok,
         result=optx.RESULTS.where(ok, optx.RESULTS.successful, optx.RESULTS.nonlinear_max_steps_reached),
-        degenerate=jnp.zeros((m,), bool),
-        outliers=jnp.zeros(used.shape, bool),
-        robust_scale=jnp.asarray(0.0),
-        robust_converged=jnp.asarray(True),
-        names=tuple(p.name for p in params),
-        units=tuple(p.unit for p in params),
         solver=solver,
     )

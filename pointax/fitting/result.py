@@ -15,10 +15,28 @@ from ..model import Model
 from ..units import ARCSEC, UNITS
 from .options import SOLVER_NAMES
 
-__all__ = ["FitResult", "CORRELATION_WARNING"]
+__all__ = ["FitResult", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_little_data"]
 
 CORRELATION_WARNING = 0.95
 """Reports warn about parameter pairs whose |correlation| exceeds this."""
+
+ABSURD_SKY_RMS_DEG = 1.0
+"""Reports warn when the Sky RMS after a fit exceeds this many degrees (3600"): real
+telescopes fit to arcseconds, sun trackers and heliostats to a few mrad (0.1 deg)."""
+
+
+def too_little_data(n_used: int, params) -> str:
+    """Why ``n_used`` observations cannot fit the free parameters ``params`` (no more
+    residuals, two per observation, than parameters), or '' when they can."""
+    n_free, n_residuals = len(params), 2 * n_used
+    if not n_free or n_residuals > n_free:
+        return ""
+    return (
+        f"{n_used} observation(s) give {n_residuals} residuals for {n_free} free parameters "
+        f"({', '.join(p.name for p in params)}): the fit would pass through every point and "
+        f"no sigma could be estimated (each would be 0); give more than {n_free // 2} observations or fix "
+        "parameters"
+    )
 
 
 class FitResult(eqx.Module):
@@ -105,6 +123,10 @@ class FitResult(eqx.Module):
         """Why the solver stopped, in words ('' when it converged)."""
         if bool(self.converged):
             return ""
+        if np.ndim(self.n_obs) == 0:
+            too_little = too_little_data(int(self.n_obs), self.model.free_parameters)
+            if too_little:
+                return too_little
         if not bool(jnp.all(jnp.isfinite(self.residuals))):
             return "residuals are not finite (NaN or inf in the data or the model)"
         if self.result == optx.RESULTS.successful:
@@ -143,7 +165,9 @@ class FitResult(eqx.Module):
         return out
 
     def warnings(self) -> list[str]:
-        """Plain-language warnings: non-convergence, degenerate and correlated parameters."""
+        """Plain-language warnings: non-convergence, degenerate and correlated parameters, an
+        absurd Sky RMS (:meth:`absurd_fit`), values outside their declared ranges
+        (:mod:`pointax.fitting.ranges`)."""
         out = []
         if not bool(self.converged):
             out.append(f"the fit did not converge after {int(self.iterations)} iterations: {self.message}")
@@ -161,10 +185,37 @@ class FitResult(eqx.Module):
             )
         for a, b, r in self.correlated_pairs():
             out.append(f"{a} and {b} are strongly correlated (r = {r:+.3f})")
+        if not self.names:
+            out.append(
+                "no free parameters (an empty term list, or every parameter fixed): nothing was fitted, and "
+                "the Sky RMS is that of the model as given"
+            )
+        absurd = self.absurd_fit()
+        if absurd:
+            out.append(absurd)
+        from .ranges import range_warning  # ranges builds on this module
+
+        outside = range_warning(np.asarray(self.values), self.model.free_parameters)
+        if outside:
+            out.append(outside)
         n, m = int(self.n_obs), len(self.names)
         if n <= m:
             out.append(f"only {n} observations for {m} parameters: Popn SD is undefined")
         return out
+
+    def absurd_fit(self) -> str:
+        """A warning when the Sky RMS after the fit exceeds :data:`ABSURD_SKY_RMS_DEG`
+        (no pointing model leaves residuals that large: the data are in the wrong
+        unit, convention or columns), else ''."""
+        rms = float(self.sky_rms)
+        if not math.isfinite(rms) or rms <= ABSURD_SKY_RMS_DEG * UNITS["deg"]:
+            return ""
+        return (
+            f"Sky RMS {rms / ARCSEC:.6g}\" ({rms / UNITS['deg']:.4g} deg) after the fit is absurd for a pointing "
+            f"model (more than {ABSURD_SKY_RMS_DEG:g} deg): the likely cause is angles in the wrong unit (radians "
+            "read as degrees, or degrees given where radians are expected), a wrong azimuth convention, or "
+            "columns in the wrong order"
+        )
 
     def report(self) -> str:
         """A TPOINT-style report: term, value, sigma; Sky RMS; Popn SD; warnings."""

@@ -20,10 +20,11 @@ from . import programs
 from .core import fit_core, free_mask, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
-from .result import FitResult
+from .ranges import wrap_periodic
+from .result import FitResult, too_little_data
 from .structure import embed
 
-__all__ = ["fit", "prepare", "fit_model", "options_from"]
+__all__ = ["fit", "prepare", "fit_model", "options_from", "check_enough_data"]
 
 
 def options_from(options: FitOptions | None, **kwargs) -> FitOptions:
@@ -95,6 +96,10 @@ def fit(
         A :class:`FitResult`. A fit that fails to converge does not raise: check
         ``result.converged`` (the report and ``warnings()`` say why).
 
+    Raises:
+        ValueError: for bad input, e.g. no more residuals (two per observation) than
+            free parameters, where every sigma would be 0 (:func:`check_enough_data`).
+
     Changing the terms, the fixed parameters or their values, or the weights does not
     compile the fit again (:mod:`pointax.fitting.structure`).
     """
@@ -102,6 +107,7 @@ def fit(
         options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
     )
     model, obs = prepare(model, data, weights, fixed)
+    check_enough_data(model, obs)
     if caption is None:
         caption = getattr(data, "caption", "") or ""
     embedding = embed(model)
@@ -110,7 +116,8 @@ def fit(
         full = programs.call("fit_core", fit_core, args, options, result_structure)
     else:
         full = _fit_core_jit(embedding.model, embedding.free, obs, options)
-    return restrict(full, embedding.index, model, caption, numpy=True)
+    # An encoder zero that ended a turn away is reported in its range (same model).
+    return wrap_periodic(restrict(full, embedding.index, model, caption, numpy=True))
 
 
 def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tuple[Model, Observations]:
@@ -134,6 +141,18 @@ def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tu
     model = model.replace_parameters(params, [_host(getattr(model.terms[p.term], p.field)) for p in params])
     obs = jax.tree.map(_host, obs)
     return model, obs
+
+
+def check_enough_data(model: Model, obs: Observations) -> None:
+    """Refuse a fit with no more residuals (two per used observation) than free
+    parameters: it would pass through every point, and every sigma would be 0.
+
+    Raises:
+        ValueError: naming the counts and what to do (:func:`too_little_data`).
+    """
+    problem = too_little_data(int(np.sum(np.asarray(obs.weight) > 0)), model.free_parameters)
+    if problem:
+        raise ValueError(problem)
 
 
 def _host(x) -> np.ndarray:

@@ -12,6 +12,8 @@ from .._lazy import lazy_namespace
 # Public name -> the module that defines it.
 _EXPORTS = {
     "FileFormatError": "errors",
+    "InputWarning": "errors",
+    "PointaxWarning": "errors",
     "GPOINT_AZIMUTH": "gpoint",
     "GpointFormatError": "gpoint",
     "GpointRun": "gpoint",
@@ -73,6 +75,8 @@ __all__ = [
     "read_xy_run",
     "write_xy_run",
     "FileFormatError",
+    "InputWarning",
+    "PointaxWarning",
     "SunFormatError",
     "SunRun",
     "format_sun_observations",

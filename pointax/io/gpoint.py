@@ -59,6 +59,7 @@ from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import DEG
 from .errors import FileFormatError
+from .sanity import check_azimuth, check_not_radians, check_observed_elevation, warn_duplicates
 
 __all__ = ["GpointFormatError", "GpointRun", "read_gpoint", "parse_gpoint", "GPOINT_AZIMUTH", "ROW_FIELDS"]
 
@@ -251,6 +252,20 @@ def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:
             raise GpointFormatError(
                 path, lineno, f"{record}: mount elevation {encoder_deg[k, 1]:.6f} deg is outside -90..180"
             )
+        check_observed_elevation(GpointFormatError, path, lineno, observed_deg[k, 1], f"{record}: observed elevation ({observed_fields})")
+        check_azimuth(GpointFormatError, path, lineno, encoder_deg[k, 0], f"{record}: mount azimuth")
+        check_azimuth(GpointFormatError, path, lineno, observed_deg[k, 0], f"{record}: observed azimuth")
+    check_not_radians(
+        GpointFormatError,
+        path,
+        line_numbers,
+        {
+            "mount azimuth": (encoder_deg[:, 0], 2 * math.pi),
+            "mount elevation": (encoder_deg[:, 1], math.pi),
+            "observed elevation": (observed_deg[:, 1], math.pi / 2),
+        },
+    )
+    warn_duplicates(path, v, line_numbers, f"{record}s")
     encoder = encoder_deg * DEG
     observed = observed_deg * DEG
     frame = np.asarray(AZIMUTH_CONVENTIONS[GPOINT_AZIMUTH])

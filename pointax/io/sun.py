@@ -36,6 +36,7 @@ import numpy as np
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from .errors import FileFormatError
+from .sanity import AZIMUTH_LIMIT_DEG, HORIZON_DEG, check_not_radians, warn_duplicates
 
 __all__ = [
     "SUN_COLUMNS",
@@ -119,6 +120,14 @@ def parse_sun_observations(text: str, path: str = "<string>") -> SunRun:
             values.append(value)
         if abs(values[3]) > 90.0:
             raise SunFormatError(path, number, f"elevation {fields[3]} is outside -90..90 deg", 4)
+        if values[3] < HORIZON_DEG:
+            raise SunFormatError(
+                path, number, f"elevation {fields[3]} deg is below the horizon by more than refraction allows "
+                f"(lowest accepted {HORIZON_DEG:g} deg)", 4
+            )
+        for column in (1, 3):
+            if abs(values[column - 1]) > AZIMUTH_LIMIT_DEG:
+                raise SunFormatError(path, number, f"{fields[column - 1]} deg is outside -360..360 deg", column)
         weight = values[4] if len(values) == 5 else 1.0
         if weight < 0:
             raise SunFormatError(path, number, f"weight {fields[4]} is negative", 5)
@@ -127,7 +136,20 @@ def parse_sun_observations(text: str, path: str = "<string>") -> SunRun:
         lines.append(number)
     if not rows:
         raise SunFormatError(path, None, "no observations (expected lines of alpha_deg beta_deg sun_az_deg sun_el_deg [weight])")
-    rad = np.radians(np.asarray(rows, np.float64))
+    degrees = np.asarray(rows, np.float64)
+    check_not_radians(
+        SunFormatError,
+        path,
+        lines,
+        {
+            "column 1 (alpha_deg)": (degrees[:, 0], 2 * math.pi),
+            "column 2 (beta_deg)": (degrees[:, 1], 2 * math.pi),
+            "column 3 (sun_az_deg)": (degrees[:, 2], 2 * math.pi),
+            "column 4 (sun_el_deg)": (degrees[:, 3], math.pi / 2),
+        },
+    )
+    warn_duplicates(path, np.column_stack([degrees, weights]), lines, "observations")
+    rad = np.radians(degrees)
     encoder, sun = rad[:, :2], rad[:, 2:]
     weight = np.asarray(weights, np.float64)
     observations = Observations(encoder, azel_to_enu_numpy(sun[:, 0], sun[:, 1]), weight, convention="turntable")

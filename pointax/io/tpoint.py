@@ -47,6 +47,7 @@ from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
 from .errors import FileFormatError
+from .sanity import check_azimuth, check_not_radians, check_observed_elevation, warn_after_end, warn_duplicates
 
 __all__ = [
     "TpointFormatError",
@@ -130,14 +131,17 @@ class TpointRun:
         return self.encoder.shape[0]
 
 
-def _records(text: str):
+def _records(text: str, path: str = "<string>"):
     """Yield ``(line number, text)`` for the caption (first) and each later record.
 
     Comment lines ('!' first), trailing '!' comments and blank lines are skipped;
-    iteration stops at an END line, after yielding ``(line number, "END")``.
+    iteration stops at an END line, after yielding ``(line number, "END")``. Records
+    after END are ignored, as TPOINT does, with an
+    :class:`~pointax.io.errors.InputWarning` naming them.
     """
     have_caption = False
-    for lineno, raw in enumerate(text.splitlines(), 1):
+    lines = text.splitlines()
+    for lineno, raw in enumerate(lines, 1):
         if raw.lstrip().startswith("!"):
             continue
         if not have_caption:
@@ -149,6 +153,12 @@ def _records(text: str):
         if not line:
             continue
         if line.upper() == "END":
+            after = [
+                k
+                for k, rest in enumerate(lines[lineno:], lineno + 1)
+                if rest.split("!", 1)[0].strip() and not rest.lstrip().startswith("!")
+            ]
+            warn_after_end(path, lineno, after)
             yield lineno, "END"
             return
         yield lineno, line
@@ -218,7 +228,7 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
     params = None
     rows, extra, lines = [], [], []
     n_columns = None
-    for lineno, line in _records(text):
+    for lineno, line in _records(text, path):
         if caption is None:
             caption = line
             continue
@@ -255,6 +265,9 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
         v = _numbers(path, lineno, tokens, ALTAZ_FIELDS, "observation record")
         if not -90.0 <= v[1] <= 90.0:
             raise TpointFormatError(path, lineno, f"observation record: field 2 (observed elevation) {tokens[1]} is outside -90..90 deg")
+        check_azimuth(TpointFormatError, path, lineno, v[0], "observation record: field 1 (observed azimuth)")
+        check_azimuth(TpointFormatError, path, lineno, v[2], "observation record: field 3 (raw azimuth)")
+        check_observed_elevation(TpointFormatError, path, lineno, v[1], "observation record: field 2 (observed elevation)")
         if not -90.0 <= v[3] <= 180.0:
             raise TpointFormatError(path, lineno, f"observation record: field 4 (raw elevation) {tokens[3]} is outside -90..180 deg")
         rows.append(v[:4])
@@ -266,7 +279,20 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
         raise TpointFormatError(path, None, "no run-parameters record (latitude, date, ...) after the caption and options")
     if not rows:
         raise TpointFormatError(path, None, "no observation records")
-    data = np.asarray(rows, np.float64) * DEG
+    degrees = np.asarray(rows, np.float64)
+    check_not_radians(
+        TpointFormatError,
+        path,
+        lines,
+        {
+            "field 1 (observed azimuth)": (degrees[:, 0], 2 * math.pi),
+            "field 2 (observed elevation)": (degrees[:, 1], math.pi / 2),
+            "field 3 (raw azimuth)": (degrees[:, 2], 2 * math.pi),
+            "field 4 (raw elevation)": (degrees[:, 3], math.pi),
+        },
+    )
+    warn_duplicates(path, np.column_stack([degrees, np.asarray(extra, np.float64).reshape(len(rows), -1)]), lines)
+    data = degrees * DEG
     observed, encoder = data[:, :2], data[:, 2:]
     frame = np.asarray(AZIMUTH_CONVENTIONS[azimuth])
     az, el = observed[:, 0], observed[:, 1]
@@ -375,7 +401,7 @@ def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
     header: dict = {}
     terms: list[ModelTerm] = []
     ended = False
-    for lineno, line in _records(text):
+    for lineno, line in _records(text, path):
         if caption is None:
             caption = line
             continue
@@ -421,6 +447,8 @@ def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
         raise TpointFormatError(path, None, "empty file: no caption line")
     if not ended:
         raise TpointFormatError(path, None, "no END line: the file may be truncated")
+    if not terms:
+        raise TpointFormatError(path, None, "no term records between the caption and END: the model is empty")
     return TpointModelFile(caption=caption, terms=tuple(terms), path=path, **header)
 
 
@@ -434,6 +462,36 @@ def read_model(path: str | os.PathLike) -> TpointModelFile:
     return parse_model(_read_text(path), path)
 
 
+def exact_decimal(value: float, decimals: int, sign: bool = False) -> str:
+    """``value`` in fixed-point notation with at least ``decimals`` decimals and as many
+    more as it takes to read back the same float64, so that a model file
+    gives back every value exactly (to well below 1e-12 rad). ``sign``: always write
+    the sign (TPOINT's ``+1209.2612``).
+
+    Raises:
+        ValueError: for NaN or infinity, which a model file cannot hold (the reader
+            refuses them).
+    """
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{value!r} is not finite")
+    plus = "+" if sign else ""
+    for d in range(decimals, 26):
+        text = f"{value:{plus}.{d}f}"
+        if float(text) == value:
+            return text
+    return f"{value:{plus}.17e}"  # below 1e-8: exponent notation (the reader takes it)
+
+
+def _checked(value: float, what: str) -> float:
+    if value is not None and not math.isfinite(value):
+        raise ValueError(
+            f"{what} is {value!r}: a TPOINT model file cannot hold NaN or infinity "
+            "(the reader refuses them); fix or drop the term before writing"
+        )
+    return value
+
+
 def format_model(
     terms: Iterable[ModelTerm],
     caption: str = "pointax model",
@@ -443,19 +501,32 @@ def format_model(
 ) -> str:
     """Text of a TPOINT model file. Values and ``sky_rms`` in arcseconds.
 
-    A sigma that is ``None`` or not finite (a degenerate parameter) is left out.
+    Numbers are written in TPOINT's fixed-point layout with as many decimals as it
+    takes to read back the same float64 (at least TPOINT's 4 for values, 5 for sigmas),
+    so a model written and read back is the same model. A sigma that is ``None`` or not
+    finite (a degenerate parameter) is left out.
+
+    Raises:
+        ValueError: for a NaN or infinite value, Sky RMS or refraction constant, naming
+            the term or field (the reader would refuse the file).
     """
     caption = caption.strip()
     if not caption or caption.startswith("!"):
         raise ValueError(f"a model-file caption must be non-empty text not starting with '!', got {caption!r}")
     lines = [caption]
     if n_obs is not None:
-        lines.append(f"T  {n_obs:3d}  {sky_rms if sky_rms is not None else 0.0:8.4f}  {refraction[0]:8.3f}  {refraction[1]:8.4f}")
+        rms = _checked(sky_rms if sky_rms is not None else 0.0, "the Sky RMS")
+        ref_a = _checked(refraction[0], "refraction constant A")
+        ref_b = _checked(refraction[1], "refraction constant B")
+        lines.append(
+            f"T  {n_obs:3d}  {exact_decimal(rms, 4):>8s}  {exact_decimal(ref_a, 3):>8s}  {exact_decimal(ref_b, 4):>8s}"
+        )
     for t in terms:
+        _checked(t.value, f"the value of term {t.name}")
         finite_sigma = t.sigma is not None and math.isfinite(t.sigma) and not t.fixed
-        sigma = f"  {t.sigma:10.5f}" if finite_sigma else ""
+        sigma = f"  {exact_decimal(t.sigma, 5):>10s}" if finite_sigma else ""
         flags = ("&" if t.parallel else " ") + ("=" if t.fixed else " ")
-        lines.append(f"{flags}{t.name:<8s} {t.value:+12.4f}{sigma}")
+        lines.append(f"{flags}{t.name:<8s} {exact_decimal(t.value, 4, sign=True):>12s}{sigma}")
     lines.append("END")
     return "\n".join(lines) + "\n"
 

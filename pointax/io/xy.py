@@ -23,6 +23,7 @@ import numpy as np
 
 from ..observations import Observations
 from .errors import FileFormatError
+from .sanity import AZIMUTH_LIMIT_DEG, check_not_radians, warn_duplicates
 
 __all__ = ["XY_FIELDS", "XYFormatError", "XYRun", "read_xy_run", "write_xy_run"]
 
@@ -61,7 +62,7 @@ def read_xy_run(path: str | os.PathLike) -> Observations:
         OSError: the file cannot be read.
     """
     name = os.fspath(path)
-    rows = []
+    rows, lines = [], []
     for number, line in enumerate(Path(path).read_text().splitlines(), 1):
         fields = line.split("#", 1)[0].replace(",", " ").split()
         if not fields:
@@ -78,11 +79,19 @@ def read_xy_run(path: str | os.PathLike) -> Observations:
                 raise XYFormatError(name, number, f"not finite: {token!r}", f"field {field}")
             if field == "B0" and abs(x) > 90.0:
                 raise XYFormatError(name, number, f"{x} is outside -90..90 deg", f"field {field}")
+            if abs(x) > AZIMUTH_LIMIT_DEG:
+                raise XYFormatError(name, number, f"{x} deg is outside -360..360 deg", f"field {field}")
             values.append(x)
         rows.append(values)
+        lines.append(number)
     if not rows:
         raise XYFormatError(name, None, "no observations (expected lines of L B L0 B0 in degrees)")
-    a = np.radians(np.asarray(rows, np.float64))
+    degrees = np.asarray(rows, np.float64)
+    check_not_radians(
+        XYFormatError, name, lines, {f"field {f}": (degrees[:, k], math.pi / 2) for k, f in enumerate(XY_FIELDS)}
+    )
+    warn_duplicates(name, degrees, lines, "observations")
+    a = np.radians(degrees)
     L0, B0 = a[:, 2], a[:, 3]
     target = np.stack([np.sin(L0) * np.cos(B0), np.sin(B0), np.cos(L0) * np.cos(B0)], axis=1)
     return Observations(a[:, :2], target, convention="xy")

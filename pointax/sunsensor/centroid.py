@@ -35,7 +35,9 @@ Every frame passes the same steps, batched over frames, and gets a status and a 
 6. **Status**: ``clipped`` if less than ``min_limb_fraction`` of the fitted limb lies
    inside the frame; ``faint`` if the peak is below ``min_snr`` noise sigmas; ``cloud``
    if the aureole around the disk (1.3-2 radii) is brighter than ``max_aureole`` of the
-   disk's peak; ``inconsistent`` if too few limb points were found, the radius is more
+   disk's peak; ``inconsistent`` if the frame holds more than one sun (a second bright
+   disk outside the first, at least :data:`SECOND_SUN` as bright: a reflection or a
+   second source), too few limb points were found, the radius is more
    than 25 % off an expected ``radius``, or the intensity centroid and the limb fit of
    an unclipped disk disagree by more than ``max_disagreement`` pixels. Only ``ok``
    frames get a centre.
@@ -68,6 +70,10 @@ import torch
 from .measure import measure
 
 __all__ = ["STATUSES", "METHODS", "Centroids", "centroid", "check_frame"]
+
+SECOND_SUN = 0.3
+"""A frame with a second bright disk (outside the first) at least this fraction as bright
+as the first is ``inconsistent`` ("more than one sun")."""
 
 STATUSES = ("ok", "bad_input", "no_sun", "saturated", "clipped", "cloud", "faint", "inconsistent")
 """Every status a frame can get; only ``ok`` frames have a centre."""
@@ -327,6 +333,14 @@ def _judge(m, k, method, radius, saturation, detect_sigma, min_limb_fraction, ma
     detection = m["detection"][k] / m["block_noise"][k]
     if not detection >= detect_sigma:
         return "no_sun", f"no sun: the brightest spot is {detection:.1f} sigma above the background (< {detect_sigma:g})", ""
+    second = m["second"][k]
+    if second / m["block_noise"][k] >= detect_sigma and second >= SECOND_SUN * m["detection"][k]:
+        return (
+            "inconsistent",
+            f"more than one sun: a second bright disk near ({m['second_x'][k]:.0f}, {m['second_y'][k]:.0f}) px, "
+            f"{100 * second / m['detection'][k]:.0f}% as bright as the first: a reflection or a second source",
+            "",
+        )
     snr = m["peak"][k] / m["noise"][k]
     if not snr >= min_snr:
         return "faint", f"the sun is faint: peak {snr:.1f} sigma above the background (< {min_snr:g}): cloud or too dense a filter", ""

@@ -88,7 +88,8 @@ def _detect(img: torch.Tensor, saturation: torch.Tensor, radius_hint: float | No
 
     Returns a dict of ``(B,)`` tensors: background, pixel noise, block noise, detection
     (peak of the eroded block image above background), saturated fraction, rough
-    centre and rough radius (pixels).
+    centre and rough radius (pixels), and the brightest eroded block outside the first
+    disk (``second``, above background, with its position ``second_x``, ``second_y``).
     """
     b, h, w = img.shape
     hb, wb = h // BLOCK, w // BLOCK
@@ -128,7 +129,19 @@ def _detect(img: torch.Tensor, saturation: torch.Tensor, radius_hint: float | No
     # Eroded block (i, j) covers pixels 4i .. 4i + 7: its centre is at 4i + 3.5.
     rough_y = (weight * rows[:, :, None].to(torch.float64)).sum(dim=(1, 2)) / total * BLOCK + BLOCK - 0.5
     rough_x = (weight * cols[:, None, :].to(torch.float64)).sum(dim=(1, 2)) / total * BLOCK + BLOCK - 0.5
+    # A second sun (a reflection, a second source): the brightest eroded block outside
+    # the first disk (1.6 rough radii around the rough centre, in block units).
+    by = torch.arange(detect.shape[-2], dtype=torch.float64)[None, :, None] * BLOCK + BLOCK - 0.5
+    bx = torch.arange(detect.shape[-1], dtype=torch.float64)[None, None, :] * BLOCK + BLOCK - 0.5
+    dist = torch.sqrt((bx - rough_x[:, None, None]) ** 2 + ((by - rough_y[:, None, None]) / aspect) ** 2)
+    outside = dist > 1.6 * r_rough[:, None, None] + 2 * BLOCK
+    second = torch.where(outside, detect.double(), torch.full_like(dist, -math.inf)).reshape(b, -1).max(dim=1)
+    second_y = (second.indices // we).double() * BLOCK + BLOCK - 0.5
+    second_x = (second.indices % we).double() * BLOCK + BLOCK - 0.5
     return {
+        "second": second.values.clamp(min=0.0),
+        "second_x": second_x,
+        "second_y": second_y,
         "background": background.double(),
         "noise": pixel_noise.double(),
         "block_noise": block_noise.double(),

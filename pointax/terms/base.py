@@ -65,14 +65,38 @@ def angle_pair(axis1, axis2) -> Float[Array, "2"]:
     return jnp.stack(jnp.broadcast_arrays(jnp.asarray(axis1, float), jnp.asarray(axis2, float)))
 
 
-def param(default: float = 0.0, *, unit: str = "arcsec", **kwargs) -> Any:
+def param(
+    default: float = 0.0,
+    *,
+    unit: str = "arcsec",
+    expected: tuple[float, float] | None = None,
+    period: float | None = None,
+    **kwargs,
+) -> Any:
     """Declare a term parameter with a default value (in radians) and a display unit.
 
     ``unit`` is how reports and model files show the value: ``"arcsec"`` (default),
     ``"deg"``, ``"rad"`` or ``"1"`` (dimensionless). The stored value is always the
     internal one: radians for angles, the plain number for ``"1"``.
+
+    ``expected``, ``(low, high)`` in internal units, is where the parameter lies in a
+    sound fit (a small mechanical error, say): a fitted value outside it is flagged,
+    as the sign of an equivalent solution in another branch (a turntable whose encoder
+    zeros came out 180 deg off) or of a bad start. ``period``: values that differ by a
+    multiple of it give the same model (an encoder zero); fits bring such a value into
+    ``[0, period)``.
     """
-    return eqx.field(default=default, metadata={"unit": unit}, **kwargs)
+    metadata = {"unit": unit}
+    if expected is not None:
+        low, high = (float(x) for x in expected)
+        if not low < high:
+            raise ValueError(f"expected range must be (low, high) with low < high, got {expected}")
+        metadata["expected"] = (low, high)
+    if period is not None:
+        if not float(period) > 0:
+            raise ValueError(f"period must be positive, got {period}")
+        metadata["period"] = float(period)
+    return eqx.field(default=default, metadata=metadata, **kwargs)
 
 
 def param_fields(term: "Term") -> list[dataclasses.Field]:

@@ -38,10 +38,17 @@ __all__ = [
 ]
 
 
+SMALL_ANGLE = (-np.radians(20.0), np.radians(20.0))
+"""Where the turntable's tilts and non-perpendicularity lie in a sound fit (radians):
+mechanical errors of a fraction of a degree. The model has an exact twin, ``alpha0 + 180
+deg``, ``beta0 - 180 deg``, ``omega0 -> 180 deg - omega0``, which a fit started far from
+the encoder zeros can reach; its ``omega0`` lies outside this range and is flagged."""
+
+
 class TiltEast(Term):
     """``mu0``: tilt of the azimuth axis about East, ``Rx(mu0)`` before the axes."""
 
-    mu0: float = param(0.0, unit="deg")
+    mu0: float = param(0.0, unit="deg", expected=SMALL_ANGLE)
 
     @property
     def name(self) -> str:
@@ -54,7 +61,7 @@ class TiltEast(Term):
 class TiltNorth(Term):
     """``nu0``: tilt of the azimuth axis about North, ``Ry(nu0)`` before the axes."""
 
-    nu0: float = param(0.0, unit="deg")
+    nu0: float = param(0.0, unit="deg", expected=SMALL_ANGLE)
 
     @property
     def name(self) -> str:
@@ -68,7 +75,7 @@ class NonPerpendicularity(Term):
     """``omega0``: the pitch axis is not perpendicular to the azimuth axis,
     ``Ry(omega0)`` between the two axes."""
 
-    omega0: float = param(0.0, unit="deg")
+    omega0: float = param(0.0, unit="deg", expected=SMALL_ANGLE)
 
     @property
     def name(self) -> str:
@@ -81,7 +88,7 @@ class NonPerpendicularity(Term):
 class AzimuthZero(Term):
     """``alpha0``: azimuth encoder reading at the model's zero (``alpha - alpha0``)."""
 
-    alpha0: float = param(0.0, unit="deg")
+    alpha0: float = param(0.0, unit="deg", period=2 * np.pi)
 
     @property
     def name(self) -> str:
@@ -94,7 +101,7 @@ class AzimuthZero(Term):
 class PitchZero(Term):
     """``beta0``: pitch encoder reading at zero elevation (``beta - beta0``)."""
 
-    beta0: float = param(0.0, unit="deg")
+    beta0: float = param(0.0, unit="deg", period=2 * np.pi)
 
     @property
     def name(self) -> str:

@@ -143,7 +143,8 @@ def read_paint(
         FileNotFoundError: the folder, ``heliostat-properties.json`` or the tower file
             is missing.
         PaintFormatError: a malformed file (naming file, field and line), no
-            calibration samples, or a sample whose ``target_name`` the tower lacks.
+            calibration samples, a sample whose ``target_name`` the tower lacks, or
+            one whose motor position lies outside its actuator's range.
         ValueError: an unknown ``focal_spot`` method, or ``mirror_offset`` where it is
             not defined.
     """
@@ -165,6 +166,9 @@ def read_paint(
         if s.target_name not in targets:
             doc = JsonDocument(s.path)
             doc.fail("target_name", f"{s.target_name!r} is not a target of {targets.path} ({', '.join(targets)})")
+
+    for s in samples:
+        _check_motor_range(s, heliostat)
 
     order = (focal_spot,) + tuple(m for m in FOCAL_SPOT_METHODS if m != focal_spot)
     methods = tuple(next(m for m in order if m in s.focal_spot) for s in samples)
@@ -191,6 +195,19 @@ def read_paint(
         measured_normal=frozen_array(normal),
         mirror_offset=mirror_offset,
     )
+
+
+def _check_motor_range(sample, heliostat: HeliostatProperties) -> None:
+    """Refuse a sample whose motor position lies outside its actuator's range
+    (``min_increment``..``max_increment`` of ``heliostat-properties.json``): the
+    actuator cannot reach it, so the file is wrong, not the kinematics."""
+    for k, (motor, actuator) in enumerate(zip(sample.motor, heliostat.actuators), 1):
+        if not actuator.min_increment <= motor <= actuator.max_increment:
+            JsonDocument(sample.path).fail(
+                f"motor_position.axis_{k}_motor_position",
+                f"{motor:g} is outside the range of actuator {k} ({actuator.min_increment:g}..{actuator.max_increment:g} "
+                f"increments in {Path(heliostat.path).name}); remove the sample or correct the file",
+            )
 
 
 def _bisector(samples, sun: np.ndarray, to_spot: np.ndarray) -> np.ndarray:

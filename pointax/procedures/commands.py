@@ -1,0 +1,362 @@
+"""The TPOINT commands a session runs, one function each: ``command(session, args, line)``.
+
+Each takes the :class:`~pointax.procedures.session.Session`, the arguments as written
+and the :class:`~pointax.procedures.parser.Line` (for relative file names), changes
+the session and prints what TPOINT would. PROC, RETURN, INPRO, CALL, END, EXIT and
+QUIT are the runner's (:mod:`pointax.procedures.runner`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ..units import ARCSEC
+from .parser import COMMANDS, NOTED_SETTINGS, Line
+from .session import Session, read_run
+
+__all__ = ["COMMAND_FUNCTIONS", "DEFAULT_FAUTO_CANDIDATES", "fit_table"]
+
+DEFAULT_FAUTO_CANDIDATES = tuple(
+    f"H{what}{fn}{arg}{k}" for what in "AES" for fn in "SC" for arg in "AE" for k in (1, 2, 3)
+)
+"""FAUTO's candidates when none are named: TPOINT harmonics of A, E and S (cross-
+elevation) in sin and cos of azimuth and elevation, multipliers 1 to 3 (36 terms)."""
+
+
+def _names(args: list[str], what: str) -> list[str]:
+    from ..terms import names
+
+    out = names(" ".join(args))
+    if not out:
+        raise ValueError(f"{what} needs term names")
+    return out
+
+
+def _check_terms(names: list[str], form: str) -> None:
+    from ..terms import tpoint
+
+    tpoint(names, form=form)  # unknown names raise, listing the known ones
+
+
+def cmd_indat(s: Session, args: list[str], line: Line) -> None:
+    """INDAT FILE: read a pointing run (masks cleared; the model is kept)."""
+    if len(args) != 1:
+        raise ValueError("INDAT needs one file name")
+    path = line.path(args[0])
+    s.run = read_run(path, s.mount, s.azimuth)
+    s.masked = np.zeros(len(s.run), bool)
+    s.result, s.stale = None, True
+    s.say(f"INDAT: {len(s.run)} observations from {path} ({s.run.caption})")
+
+
+def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
+    """INMOD FILE: read a TPOINT model file: its terms, values and fixed terms replace
+    the current model."""
+    from ..io.tpoint import read_model
+
+    if len(args) != 1:
+        raise ValueError("INMOD needs one file name")
+    path = line.path(args[0])
+    mod = read_model(path)
+    names = [t.name.upper() for t in mod.terms]
+    _check_terms(names, s.form)
+    s.terms = names
+    s.values = {n: v for n, v in zip(names, (t.value * ARCSEC for t in mod.terms))}
+    s.fixed = {t.name.upper() for t in mod.terms if t.fixed}
+    s.refraction = mod.refraction
+    s.stale = True
+    s.say(f"INMOD: {len(names)} terms from {path}: {' '.join(names)}")
+
+
+def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
+    """OUTMOD FILE: write the model as a TPOINT model file (with N, Sky RMS and sigmas
+    of the last FIT when nothing changed since; the refraction constants of the model
+    file INMOD read, else 0: pointax fits none)."""
+    from ..io.tpoint import write_model
+
+    if len(args) != 1:
+        raise ValueError("OUTMOD needs one file name")
+    path = line.path(args[0])
+    refraction = s.refraction or (0.0, 0.0)  # pointax fits no refraction: INMOD's constants, else 0
+    if s.result is not None and not s.stale:
+        write_model(path, s.result, caption=s.current_caption(), refraction=refraction)
+        s.say(f"OUTMOD: {path} (N {int(s.result.n_obs)}, Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f})")
+    else:
+        if not s.terms:
+            raise ValueError("OUTMOD: the model has no terms (USE or INMOD first)")
+        write_model(path, s.model(), caption=s.current_caption(), refraction=refraction)
+        s.say(f"OUTMOD: {path} (values only: the model or the masks changed since the last FIT)")
+
+
+def cmd_use(s: Session, args: list[str], line: Line) -> None:
+    """USE NAME ...: add terms to the model (each starts at 0)."""
+    names = _names(args, "USE")
+    _check_terms(names, s.form)
+    added = [n for n in names if n not in s.terms]
+    for n in added:
+        s.terms.append(n)
+        s.values[n] = 0.0
+    s.stale = s.stale or bool(added)
+    already = [n for n in names if n not in added]
+    s.say(f"USE: {' '.join(s.terms)}" + (f" ({' '.join(already)} already in use)" if already else ""))
+
+
+def _in_use(s: Session, args: list[str], what: str) -> list[str]:
+    if [a.upper() for a in args] == ["ALL"]:
+        return list(s.terms)
+    names = _names(args, what)
+    unknown = [n for n in names if n not in s.terms]
+    if unknown:
+        raise ValueError(f"{what}: {' '.join(unknown)} not in use (in use: {' '.join(s.terms) or 'none'})")
+    return names
+
+
+def cmd_lose(s: Session, args: list[str], line: Line) -> None:
+    """LOSE NAME ... | ALL: remove terms from the model."""
+    names = _in_use(s, args, "LOSE")
+    s.terms = [n for n in s.terms if n not in names]
+    for n in names:
+        s.values.pop(n, None)
+    s.fixed -= set(names)
+    s.stale = True
+    s.say(f"LOSE: in use now {' '.join(s.terms) or 'none'}")
+
+
+def cmd_fix(s: Session, args: list[str], line: Line) -> None:
+    """FIX NAME ... | ALL: hold terms at their current values in FIT."""
+    s.fixed |= set(_in_use(s, args, "FIX"))
+    s.stale = True
+    s.say(f"FIX: fixed {' '.join(n for n in s.terms if n in s.fixed) or 'none'}")
+
+
+def cmd_unfix(s: Session, args: list[str], line: Line) -> None:
+    """UNFIX NAME ... | ALL: fit terms again."""
+    s.fixed -= set(_in_use(s, args, "UNFIX"))
+    s.stale = True
+    s.say(f"UNFIX: fixed {' '.join(n for n in s.terms if n in s.fixed) or 'none'}")
+
+
+def fit_table(result, changes) -> str:
+    """FIT's table: each fitted coefficient's change, value and sigma (arcsec), the
+    fixed ones, Sky RMS, Popn SD and warnings."""
+    lines = [f"       {'coeff':<9s}     change        value       sigma"]
+    values, sigmas = np.asarray(result.values, np.float64), np.asarray(result.sigmas, np.float64)
+    changes = np.asarray(changes, np.float64)
+    for k, (name, d, v, e) in enumerate(zip(result.names, changes, values, sigmas), 1):
+        lines.append(f"  {k:3d}  {name:<9s} {d / ARCSEC:+10.4f} {v / ARCSEC:+12.4f} {e / ARCSEC:11.4f}")
+    for name in result.model.parameter_names:
+        if name in result.model.fixed:
+            lines.append(f"       {name:<9s} {'':10s} {float(result.model.get(name)) / ARCSEC:+12.4f}       fixed")
+    popn = float(result.popn_sd) / ARCSEC
+    lines += ["", f"Sky RMS = {float(result.sky_rms) / ARCSEC:9.4f}"]
+    lines.append(f"Popn SD = {popn:9.4f}" if math.isfinite(popn) else "Popn SD =   undefined")
+    lines += [f"WARNING: {w}" for w in result.warnings() if "did not converge" not in w]
+    return "\n".join(lines)
+
+
+def cmd_fit(s: Session, args: list[str], line: Line) -> None:
+    """FIT: one linearised adjustment of the free coefficients from their current
+    values (:func:`pointax.procedures.step.gauss_newton_step`); prints the changes."""
+    from .step import gauss_newton_step
+
+    if args:
+        raise ValueError(f"FIT takes no arguments, got {' '.join(args)}")
+    run = s.require_run()
+    if not s.terms:
+        raise ValueError("FIT: the model has no terms (USE or INMOD first)")
+    step = gauss_newton_step(s.model(), run, weights=s.weights(), caption=s.current_caption())
+    result = step.result
+    for name in s.terms:
+        s.values[name] = float(result.model.get(name))
+    s.result, s.stale = result, False
+    n_masked = int(s.masked.sum())
+    s.say(
+        f"FIT: one linearised adjustment, {len(result.names)} coefficients, {int(result.n_obs)} observations"
+        + (f" ({n_masked} masked)" if n_masked else "")
+    )
+    s.say()
+    s.say(fit_table(result, step.changes))
+
+
+def _require_fit(s: Session, what: str):
+    if s.result is None:
+        raise ValueError(f"{what} shows the residuals of the last FIT: FIT first")
+    return s.result
+
+
+def cmd_slist(s: Session, args: list[str], line: Line) -> None:
+    """SLIST: the residual listing of the last FIT (masks as they are now)."""
+    from ..listing import format_listing
+
+    result = _require_fit(s, "SLIST")
+    if s.stale:
+        s.say("SLIST: the model or the masks changed since the last FIT; residuals and 'used' are that FIT's")
+    s.say(format_listing(s.run, result, s.masked))
+
+
+_R_ABOVE = re.compile(r"^R\s*(>|GT)\s*([-+0-9.eE]+)$", re.IGNORECASE)
+
+
+def cmd_mask(s: Session, args: list[str], line: Line) -> None:
+    """MASK R > X: mask observations whose on-sky residual under the current model
+    exceeds X arcsec; MASK 17 19-21: by number (from 1, file order); MASK ALL."""
+    from ..masking import format_rows, mask_above, parse_rows
+
+    run = s.require_run()
+    text = " ".join(args).strip()
+    if not text:
+        raise ValueError("MASK needs R > X (arcsec) or observation numbers (17 19-21)")
+    before = s.masked.copy()
+    match = _R_ABOVE.match(text)
+    if match:
+        limit = float(match.group(2))
+        if not s.terms:
+            raise ValueError("MASK R > X judges residuals of the model: USE or INMOD terms first")
+        s.masked = mask_above(s.model(), run.observations, limit, masked=s.masked)
+    elif text.upper() == "ALL":
+        s.masked[:] = True
+    elif text[0].isdigit() or text[0] == "-":
+        s.masked[parse_rows(text, len(run), option="MASK")] = True
+    else:
+        raise ValueError(f"MASK {text}: pointax masks by R > X (on-sky residual, arcsec) or by observation number")
+    new = np.flatnonzero(s.masked & ~before)
+    s.stale = s.stale or bool(new.size)
+    s.say(
+        f"MASK: {new.size} more masked" + (f" ({format_rows(new)})" if new.size else "")
+        + f"; {int(s.masked.sum())} masked, {int((~s.masked).sum())} in use"
+    )
+
+
+def cmd_unmask(s: Session, args: list[str], line: Line) -> None:
+    """UNMASK: every observation in use again; UNMASK 17 19-21: those."""
+    from ..masking import parse_rows
+
+    run = s.require_run()
+    text = " ".join(args).strip()
+    if not text or text.upper() == "ALL":
+        s.masked[:] = False
+    else:
+        s.masked[parse_rows(text, len(run), option="UNMASK")] = False
+    s.stale = True
+    s.say(f"UNMASK: {int(s.masked.sum())} masked, {int((~s.masked).sum())} in use")
+
+
+def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
+    """FAUTO [NAME ...]: automatic model building from the current model
+    (:func:`pointax.build_model`) over the named candidate terms (default
+    :data:`DEFAULT_FAUTO_CANDIDATES`), on the unmasked observations; the model becomes
+    the one it built (FIT then refines it)."""
+    from ..analysis.model_building import build_model
+    from ..terms import tpoint
+
+    run = s.require_run()
+    names = _names(args, "FAUTO") if args else [n for n in DEFAULT_FAUTO_CANDIDATES if n not in s.terms]
+    candidates = tpoint(names, form=s.form)
+    keep = s.observations().weight > 0
+    build = build_model(candidates, run.observations[np.flatnonzero(keep)], start=s.model())
+    s.say(build.report())
+    s.terms = [t.name.upper() for t in build.model.terms]
+    s.values = {n: float(build.model.get(n)) for n in s.terms}
+    s.fixed &= set(s.terms)
+    s.stale = True
+
+
+def cmd_show(s: Session, args: list[str], line: Line) -> None:
+    """SHOW: the run, masks, terms with values (arcsec), fixed terms, last FIT."""
+    if s.run is None:
+        s.say("SHOW: no data (INDAT FILE)")
+    else:
+        s.say(f"data: {s.run.path} ({s.run.caption}), {len(s.run)} observations, {int(s.masked.sum())} masked")
+        if s.masked.any():
+            from ..masking import format_rows
+
+            s.say(f"masked: {format_rows(np.flatnonzero(s.masked))}")
+    s.say(f"mount: {s.mount}, azimuth {s.azimuth}; terms {s.form}, residuals {s.residual_form}")
+    if not s.terms:
+        s.say("model: no terms")
+    for n in s.terms:
+        s.say(f"  {n:<9s} {s.values.get(n, 0.0) / ARCSEC:+12.4f}" + ("  fixed" if n in s.fixed else ""))
+    if s.result is not None:
+        state = "changed since" if s.stale else "current"
+        s.say(f"last FIT: Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f}, N {int(s.result.n_obs)} ({state})")
+
+
+def cmd_graph(s: Session, args: list[str], line: Line) -> None:
+    """G...: draw TPOINT's named plot of the last FIT (:func:`pointax.plots.tpoint_graph`);
+    GC FILE writes it."""
+    from ..plots import tpoint_graph
+
+    result = _require_fit(s, "G")
+    command = " ".join([line.text.split("!", 1)[0].split()[0]] + args)
+    s.figure = tpoint_graph(command, result, s.observations())
+    s.say(f"{command.upper()}: drawn (GC FILE writes it)")
+
+
+def cmd_gc(s: Session, args: list[str], line: Line) -> None:
+    """GC FILE: write the last figure in the format of the extension (.png, .svg,
+    .pdf; .ps and .eps give PostScript)."""
+    from ..plots import save_figure
+
+    if len(args) != 1:
+        raise ValueError("GC needs one file name")
+    if s.figure is None:
+        raise ValueError("GC: no figure yet (draw one with a G command, e.g. G S A)")
+    s.say(f"GC: {save_figure(s.figure, line.path(args[0]))}")
+
+
+def cmd_capt(s: Session, args: list[str], line: Line) -> None:
+    """CAPT TEXT: the caption of model files written from now on."""
+    s.caption = " ".join(args) or None
+    s.say(f"CAPT: {s.current_caption()}")
+
+
+def cmd_noted(s: Session, args: list[str], line: Line) -> None:
+    """Display settings (:data:`NOTED_SETTINGS`): accepted, with a note."""
+    word = line.text.split("!", 1)[0].split()[0].upper()
+    s.say(f"{word}: display setting accepted; it changes nothing in pointax's plots")
+
+
+def cmd_help(s: Session, args: list[str], line: Line) -> None:
+    """HELP: the commands."""
+    for word in COMMANDS:
+        fn = COMMAND_FUNCTIONS.get(word)
+        doc = (fn.__doc__ or "").strip().split("\n")[0] if fn else _RUNNER_HELP.get(word, "")
+        s.say(f"  {word:<7s} {doc}")
+    s.say("  G...    " + (cmd_graph.__doc__ or "").strip().split("\n")[0])
+    s.say(f"  accepted with a note: {' '.join(NOTED_SETTINGS)}")
+
+
+_RUNNER_HELP = {
+    "PROC": "PROC NAME: define a procedure, up to RETURN",
+    "RETURN": "end a procedure's definition",
+    "INPRO": "INPRO FILE: read procedure definitions from a file",
+    "CALL": "CALL NAME (or NAME alone): run a procedure",
+    "END": "stop reading this file (or standard input)",
+    "EXIT": "as END",
+    "QUIT": "as END",
+}
+
+COMMAND_FUNCTIONS = {
+    "INDAT": cmd_indat,
+    "INMOD": cmd_inmod,
+    "OUTMOD": cmd_outmod,
+    "USE": cmd_use,
+    "LOSE": cmd_lose,
+    "FIX": cmd_fix,
+    "UNFIX": cmd_unfix,
+    "FIT": cmd_fit,
+    "SLIST": cmd_slist,
+    "MASK": cmd_mask,
+    "UNMASK": cmd_unmask,
+    "FAUTO": cmd_fauto,
+    "SHOW": cmd_show,
+    "G": cmd_graph,
+    "GC": cmd_gc,
+    "CAPT": cmd_capt,
+    "NOTED": cmd_noted,
+    "HELP": cmd_help,
+}
+"""Resolved command word -> function."""

@@ -1,0 +1,153 @@
+"""The state of a TPOINT session: the run, the model's terms and values, masks, the
+last fit, defined procedures and the current figure.
+
+The model is kept as TPOINT keeps it: an ordered list of term names with a value each
+(radians) and the set of fixed names. :meth:`Session.model` builds the
+:class:`pointax.Model` of that state; a mask is a weight of 0
+(:meth:`Session.weights`), so changing the terms, the fixed names or the masks never
+changes the compiled structure of a fit (:func:`pointax.fitting.embed`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+__all__ = ["Session", "MOUNTS", "read_run"]
+
+MOUNTS = ("altaz", "equatorial")
+"""Mounts ``pointax tpoint --mount`` names for runs whose files do not say."""
+
+
+def read_run(path: str | Path, mount: str = "altaz", azimuth: str = "N-E"):
+    """Read a TPOINT input file as a run of ``mount``.
+
+    A file whose option records name no mount is equatorial by TPOINT's default; with
+    ``mount='altaz'`` it is read as alt-az (some observatories' TPOINT is set up so,
+    and their files omit ``: ALTAZ``). Line numbers stay those of the file.
+
+    Raises:
+        ValueError: ``mount='equatorial'`` (not supported yet: issue 19) or an unknown
+            mount.
+        pointax.io.TpointFormatError: a malformed file (naming file, line, field).
+        OSError: the file cannot be read.
+    """
+    from ..io.tpoint import MOUNT_OPTIONS, TpointFormatError, parse_tpoint, read_tpoint
+
+    if mount not in MOUNTS:
+        raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
+    if mount == "equatorial":
+        raise ValueError(
+            f"{path}: equatorial runs are not supported yet (pointax tpoint fits alt-az runs; "
+            "equatorial mounts are issue 19)"
+        )
+    try:
+        return read_tpoint(path, azimuth=azimuth)
+    except TpointFormatError as err:
+        text = Path(path).read_text(encoding="utf-8-sig")
+        lines = text.splitlines()
+        caption = _caption_index(lines)
+        options = {w.upper() for line in lines if line.lstrip().startswith(":") for w in line.lstrip()[1:].split()}
+        if caption is None or MOUNT_OPTIONS & options:
+            raise err from None
+        # No mount option: insert ': ALTAZ' after the caption, then restore line numbers.
+        patched = "\n".join(lines[: caption + 1] + [": ALTAZ"] + lines[caption + 1 :])
+        try:
+            run = parse_tpoint(patched, str(path), azimuth)
+        except TpointFormatError:
+            raise err from None
+        fixed = np.where(run.lines > caption + 1, run.lines - 1, run.lines)
+        return dataclasses.replace(run, lines=fixed, options=run.options)
+
+
+def _caption_index(lines: list[str]) -> int | None:
+    for k, line in enumerate(lines):
+        if line.strip() and not line.lstrip().startswith("!"):
+            return k
+    return None
+
+
+@dataclasses.dataclass
+class Session:
+    """What a ``pointax tpoint`` session holds.
+
+    Attributes:
+        out: where reports go (standard output by default).
+        mount: 'altaz' (runs without a mount record are read as alt-az).
+        azimuth: how the run files count azimuth ('N-E', 'S-E', 'S-W').
+        form: TPOINT term form, 'linear' (TPOINT's definitions) or 'rigorous'.
+        residual_form: 'sky' (the model applied rigorously, as TPOINT's FIT) or
+            'tpoint' (TPOINT's linearised residuals).
+        run: the run read by INDAT (None before).
+        terms: the terms in use, in order (upper-case TPOINT names).
+        values: each term's value, radians (terms lost keep no value).
+        fixed: names of fixed terms.
+        masked: ``(n,)`` bool, masked observations of the run.
+        result: the last FIT's :class:`pointax.FitResult` (None before one).
+        stale: whether the model or the masks changed since that FIT.
+        caption: the caption (CAPT; default the run's).
+        refraction: refraction constants (A, B) of the model file INMOD read, written
+            back by OUTMOD (None: 0, 0).
+        procedures: defined procedures, by upper-case name: their lines.
+        figure: the last figure drawn by a G command.
+    """
+
+    out: TextIO = dataclasses.field(default_factory=lambda: sys.stdout)
+    mount: str = "altaz"
+    azimuth: str = "N-E"
+    form: str = "linear"
+    residual_form: str = "sky"
+    run: Any = None
+    terms: list[str] = dataclasses.field(default_factory=list)
+    values: dict[str, float] = dataclasses.field(default_factory=dict)
+    fixed: set[str] = dataclasses.field(default_factory=set)
+    masked: np.ndarray | None = None
+    result: Any = None
+    stale: bool = True
+    caption: str | None = None
+    refraction: tuple[float, float] | None = None
+    procedures: dict[str, list] = dataclasses.field(default_factory=dict)
+    figure: Any = None
+
+    def say(self, text: str = "") -> None:
+        """Print ``text`` to :attr:`out`."""
+        print(text, file=self.out)
+
+    def require_run(self):
+        """The run; ValueError when INDAT has not read one."""
+        if self.run is None:
+            raise ValueError("no data: read a run with INDAT FILE first")
+        return self.run
+
+    def model(self):
+        """The :class:`pointax.AltAz` model of the current terms, values and fixed
+        names (terms not yet fitted at 0)."""
+        from ..mount_models import AltAz
+        from ..terms import tpoint
+
+        run = self.require_run()
+        terms = tpoint(self.terms, form=self.form, values={n: self.values.get(n, 0.0) for n in self.terms})
+        return AltAz(terms, azimuth=run.azimuth, fixed=sorted(self.fixed), residual_form=self.residual_form)
+
+    def weights(self) -> np.ndarray:
+        """``(n,)`` the run's weights with masked observations at 0."""
+        run = self.require_run()
+        base = np.asarray(run.observations.weight, np.float64)
+        return np.where(self.masked, 0.0, base)
+
+    def observations(self):
+        """The run's :class:`pointax.Observations` with masked ones at weight 0 (what
+        plots draw as masked)."""
+        from ..observations import Observations
+
+        obs = self.require_run().observations
+        return Observations(obs.encoder, obs.target, self.weights(), obs.convention)
+
+    def current_caption(self) -> str:
+        if self.caption:
+            return self.caption
+        return self.run.caption if self.run is not None else "pointax tpoint"
