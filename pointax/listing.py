@@ -37,12 +37,12 @@ LISTING_KEYS = (
 ``observations``)."""
 
 
-def _columns(run, result, masked) -> dict[str, np.ndarray]:
+def _columns(run, result, masked, residuals=None) -> dict[str, np.ndarray]:
     n = len(run)
     masked = np.zeros(n, bool) if masked is None else np.asarray(masked, bool)
     if masked.shape != (n,):
         raise ValueError(f"masked must have shape ({n},), got {masked.shape}")
-    r = all_residuals(result.model, run.observations) / ARCSEC
+    r = (all_residuals(result.model, run.observations) if residuals is None else np.asarray(residuals, np.float64)) / ARCSEC
     lines = getattr(run, "lines", None)
     return {
         "row": np.arange(1, n + 1),
@@ -59,7 +59,7 @@ def _columns(run, result, masked) -> dict[str, np.ndarray]:
     }
 
 
-def observation_entries(run, result, masked=None) -> list[dict[str, Any]]:
+def observation_entries(run, result, masked=None, residuals=None) -> list[dict[str, Any]]:
     """One JSON-ready dict per observation of ``run``, in file order.
 
     Args:
@@ -69,6 +69,8 @@ def observation_entries(run, result, masked=None) -> list[dict[str, Any]]:
             ``observations``.
         result: the :class:`pointax.FitResult` of a fit to ``run``.
         masked: optional ``(n,)`` bool, the observations the fit was told to leave out.
+        residuals: optional ``(n, 2)`` residuals (radians) of ``result.model`` at every
+            observation, when the caller has them (default: evaluated here).
 
     Returns:
         Dicts with :data:`LISTING_KEYS`: ``row`` (1-based, TPOINT's numbering),
@@ -77,7 +79,7 @@ def observation_entries(run, result, masked=None) -> list[dict[str, Any]]:
         (on-sky distance), ``used`` (in the final fit), ``masked``, ``outlier``
         (flagged by a robust fit).
     """
-    c = _columns(run, result, masked)
+    c = _columns(run, result, masked, residuals)
     return [
         {
             "row": int(c["row"][i]),

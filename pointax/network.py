@@ -543,10 +543,14 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         if entry.format == "tpoint":
             head.update(caption=run.caption, form=entry.form, residuals=entry.residuals)
         out[entry.site] = {**head, **statuses[k], **one.to_dict()}
-        # As pointax fit --json: no masks, one entry per observation.
+        # As pointax fit --json: no masks, one entry per observation. The batched fit has
+        # the residuals of every row it used (no model evaluation per site here); a row
+        # the file gave weight 0 has none there, so such a site's are evaluated.
         n = len(run.observations)
         rows = eqx.tree_at(lambda r: (r.used, r.outliers), one, (np.asarray(one.used)[:n], np.asarray(one.outliers)[:n]))
-        out[entry.site].update(masked=[], observations=observation_entries(run, rows))
+        every_row = bool(np.all(np.asarray(run.observations.weight) > 0))
+        residuals = np.asarray(one.residuals)[:n] if every_row else None
+        out[entry.site].update(masked=[], observations=observation_entries(run, rows, residuals=residuals))
     return out
 
 

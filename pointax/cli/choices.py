@@ -68,3 +68,6 @@ CENTROID_METHODS = ("auto", "intensity", "limb")
 
 RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy")
 """Pointing-run formats :func:`pointax.io.load_run` reads: :data:`pointax.io.RUN_FORMATS`."""
+
+PROCEDURE_MOUNTS = ("altaz", "equatorial")
+"""Mounts ``pointax tpoint --mount`` names: :data:`pointax.procedures.session.MOUNTS`."""

@@ -18,10 +18,7 @@ import sys
 from . import choices
 from .common import error, missing_input
 
-__all__ = ["add_tpoint_parser", "run_tpoint", "MOUNTS"]
-
-MOUNTS = ("altaz", "equatorial")
-"""Copy of :data:`pointax.procedures.session.MOUNTS` (no import of the library here)."""
+__all__ = ["add_tpoint_parser", "run_tpoint"]
 
 _PREFIX = "pointax tpoint"
 
@@ -38,7 +35,7 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("scripts", nargs="*", metavar="SCRIPT", help="command files; file names in them are relative to their folder")
     p.add_argument(
         "--mount",
-        choices=MOUNTS,
+        choices=choices.PROCEDURE_MOUNTS,
         default="altaz",
         help="mount of runs whose files name none (TPOINT's default is equatorial; default here: altaz). "
         "equatorial is not supported yet",

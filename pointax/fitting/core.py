@@ -37,7 +37,7 @@ __all__ = [
     "fit_core",
     "least_squares",
     "gauss_newton_step",
-    "Step",
+    "LinearisedStep",
     "fit_result",
     "restrict",
     "free_mask",
@@ -170,7 +170,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     )
 
 
-class Step(NamedTuple):
+class LinearisedStep(NamedTuple):
     """One Gauss-Newton step of a least-squares fit (:func:`gauss_newton_step`)."""
 
     model: Model
@@ -190,7 +190,7 @@ class Step(NamedTuple):
     """The step itself was finite (else the values stayed)."""
 
 
-def gauss_newton_step(model: Model, free: Bool[Array, " m"], obs: Observations, weight, used, y) -> Step:
+def gauss_newton_step(model: Model, free: Bool[Array, " m"], obs: Observations, weight, used, y) -> LinearisedStep:
     """One linearised least-squares adjustment of the ``free`` parameters from the values
     ``y`` (``(M,)``, every parameter of ``model``): ``y - (J^T J)^-1 J^T r(y)`` with ``r``
     the residuals times the square roots of ``weight`` and ``J`` their Jacobian (the
@@ -214,7 +214,7 @@ def gauss_newton_step(model: Model, free: Bool[Array, " m"], obs: Observations, 
     rw = r * sqrt_w
     stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
     finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
-    return Step(fitted, y, change, r, stats, degenerate, finite, step_finite)
+    return LinearisedStep(fitted, y, change, r, stats, degenerate, finite, step_finite)
 
 
 def fit_result(
