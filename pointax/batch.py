@@ -33,7 +33,7 @@ from .fitting.core import result_from_covariance
 from .fitting.options import FitOptions
 from .fitting.ranges import range_warning, wrap_periodic
 from .fitting.residuals import check_convention
-from .fitting.result import FitResult
+from .fitting.result import FitResult, too_few_residuals
 from .fitting.solo import fit_model, options_from
 from .model import Model
 from .normal_equations import CholeskyGaussNewton
@@ -501,8 +501,7 @@ def fit_batch(
     result = jax.tree.map(lambda *xs: np.concatenate(xs), *results)
     # A site with no more residuals than free parameters fits every point, with every
     # sigma 0: refused, as px.fit refuses it (the reason: FitResult.message).
-    n_free = len(model.free_parameters)
-    too_little = 2 * np.asarray(result.n_obs) <= n_free if n_free else np.zeros(n_sites, bool)
-    result = dataclasses.replace(result, converged=np.asarray(result.converged) & ~too_little, solver=solver)
+    too_few = too_few_residuals(result.n_obs, len(model.free_parameters))
+    result = dataclasses.replace(result, converged=np.asarray(result.converged) & ~too_few, solver=solver)
     # An encoder zero that ended a turn away is reported in its range (same model).
     return wrap_periodic(jax.device_put(result, may_alias=True))

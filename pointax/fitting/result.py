@@ -15,7 +15,7 @@ from ..model import Model
 from ..units import ARCSEC, UNITS
 from .options import SOLVER_NAMES
 
-__all__ = ["FitResult", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_little_data"]
+__all__ = ["FitResult", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_few_residuals", "too_little_data"]
 
 CORRELATION_WARNING = 0.95
 """Reports warn about parameter pairs whose |correlation| exceeds this."""
@@ -25,11 +25,17 @@ ABSURD_SKY_RMS_DEG = 1.0
 telescopes fit to arcseconds, sun trackers and heliostats to a few mrad (0.1 deg)."""
 
 
+def too_few_residuals(n_used, n_free: int):
+    """Whether ``n_used`` observations (an int or an array of them, one per site) give no
+    more residuals, two per observation, than ``n_free`` free parameters (never with none)."""
+    return (2 * np.asarray(n_used) <= n_free) & (n_free > 0)
+
+
 def too_little_data(n_used: int, params) -> str:
-    """Why ``n_used`` observations cannot fit the free parameters ``params`` (no more
-    residuals, two per observation, than parameters), or '' when they can."""
+    """Why ``n_used`` observations cannot fit the free parameters ``params``
+    (:func:`too_few_residuals`), or '' when they can."""
     n_free, n_residuals = len(params), 2 * n_used
-    if not n_free or n_residuals > n_free:
+    if not too_few_residuals(n_used, n_free):
         return ""
     return (
         f"{n_used} observation(s) give {n_residuals} residuals for {n_free} free parameters "
