@@ -12,6 +12,17 @@ import pytest
 # behaviour in a fresh subprocess.)
 jax.config.update("jax_enable_x64", True)
 
+# Property tests draw the same examples on every run, so a CI result can be reproduced;
+# `pytest --hypothesis-profile=explore tests/test_properties.py` draws new ones, many more.
+try:
+    from hypothesis import settings as _hypothesis_settings
+
+    _hypothesis_settings.register_profile("repeatable", derandomize=True)
+    _hypothesis_settings.register_profile("explore", derandomize=False, max_examples=2000)
+    _hypothesis_settings.load_profile("repeatable")
+except ImportError:  # hypothesis is a dev extra; tests that need it import it themselves
+    pass
+
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
 MMT_DAT = EXAMPLES / "data" / "mmt_20210821.dat"

@@ -343,6 +343,7 @@ for _text, _what in [
     ("279.4 216.4 141.0 -5.0", "column 4 \\(sun_el_deg\\).*below the horizon"),
     ("279.4 216.4 500.0 50.0", "column 3 \\(sun_az_deg\\).*outside -360..360"),
     ("-720.0 216.4 141.0 50.0", "column 1 \\(alpha_deg\\).*outside -360..360"),
+    ("279.4 1000.0 141.0 50.0", "column 2 \\(beta_deg\\).*outside -360..360"),
     ("279.4 216.4 141.0 50.0 -1", "column 5 \\(weight\\).*negative"),
     ("279.4 216.4 141.0", "expected 4 or 5 numbers"),
     ("279.4 nan 141.0 50.0", "column 2 \\(beta_deg\\).*not finite"),

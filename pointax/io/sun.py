@@ -125,7 +125,7 @@ def parse_sun_observations(text: str, path: str = "<string>") -> SunRun:
                 path, number, f"elevation {fields[3]} deg is below the horizon by more than refraction allows "
                 f"(lowest accepted {HORIZON_DEG:g} deg)", 4
             )
-        for column in (1, 3):
+        for column in (1, 2, 3):
             if abs(values[column - 1]) > AZIMUTH_LIMIT_DEG:
                 raise SunFormatError(path, number, f"{fields[column - 1]} deg is outside -360..360 deg", column)
         weight = values[4] if len(values) == 5 else 1.0
