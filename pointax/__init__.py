@@ -62,6 +62,11 @@ _EXPORTS = {
     "SharedFit": "shared",
     "fit_shared": "shared",
     "simulate": "simulate",
+    "Candidates": "planning",
+    "Plan": "planning",
+    "PredictedAccuracy": "planning",
+    "plan_run": "planning",
+    "predicted_accuracy": "planning",
     "Term": "terms",
     "param": "terms",
     "arcsec": "units",
@@ -72,7 +77,7 @@ _EXPORTS = {
 }
 
 # Submodules exported as themselves.
-_SUBMODULES = ("analysis", "distributed", "fitting", "io", "network", "rotations", "sky", "stars", "terms", "trig", "units")
+_SUBMODULES = ("analysis", "distributed", "fitting", "io", "network", "planning", "rotations", "sky", "stars", "terms", "trig", "units")
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)
 
@@ -96,6 +101,9 @@ __all__ = [
     "Mount",
     "Observations",
     "ParameterInfo",
+    "Plan",
+    "PredictedAccuracy",
+    "Candidates",
     "Term",
     "arcsec",
     "deg",
@@ -114,6 +122,9 @@ __all__ = [
     "network",
     "io",
     "param",
+    "plan_run",
+    "planning",
+    "predicted_accuracy",
     "rad",
     "reflect_normal",
     "residuals",

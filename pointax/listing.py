@@ -2,8 +2,10 @@
 
 For every observation of a run (used, masked or flagged as an outlier) it gives the
 file line, the observed and raw encoder angles as the file gives them (degrees, the
-file's azimuth convention) and the residuals of the fitted model: cross-elevation
-``dX = dA cos E``, elevation ``dE`` and the on-sky distance ``dS = sqrt(dX^2 + dE^2)``,
+file's azimuth convention; hour angle and declination for an equatorial run) and the
+residuals of the fitted model: cross-elevation ``dX = dA cos E`` (cross-declination
+``dH cos dec``), elevation ``dE`` (declination) and the on-sky distance
+``dS = sqrt(dX^2 + dE^2)``,
 observed minus model, arcsec. Residuals of masked observations are evaluated with the
 same fitted model, so a listing shows how far a masked star lies from the fit.
 """
@@ -17,7 +19,7 @@ import numpy as np
 from .masking import all_residuals
 from .units import ARCSEC, DEG
 
-__all__ = ["observation_entries", "format_listing", "LISTING_KEYS"]
+__all__ = ["observation_entries", "format_listing", "LISTING_KEYS", "EQUATORIAL_KEYS"]
 
 LISTING_KEYS = (
     "row",
@@ -34,7 +36,20 @@ LISTING_KEYS = (
     "outlier",
 )
 """The keys of each entry of :func:`observation_entries` (``pointax fit --json``'s
-``observations``)."""
+``observations``) for alt-az and other runs; an equatorial run's entries name hour
+angle and declination instead (:data:`EQUATORIAL_KEYS`)."""
+
+EQUATORIAL_KEYS = tuple(
+    k.replace("_az_", "_ha_").replace("_el_", "_dec_") for k in LISTING_KEYS
+)
+"""The keys of an equatorial run's entries: ``observed_ha_deg``, ``observed_dec_deg``,
+``raw_ha_deg``, ``raw_dec_deg`` (hour angle positive West, degrees; the telescope's
+declination beyond +-90 on the other side of the pier), ``dx_arcsec`` = dH cos dec,
+``de_arcsec`` = d dec, and the rest as :data:`LISTING_KEYS`."""
+
+
+def _equatorial(run) -> bool:
+    return getattr(run, "mount", None) == "equatorial"
 
 
 def _columns(run, result, masked, residuals=None) -> dict[str, np.ndarray]:
@@ -80,21 +95,27 @@ def observation_entries(run, result, masked=None, residuals=None) -> list[dict[s
         (flagged by a robust fit).
     """
     c = _columns(run, result, masked, residuals)
+    keys = EQUATORIAL_KEYS if _equatorial(run) else LISTING_KEYS
     return [
-        {
-            "row": int(c["row"][i]),
-            "line": int(c["line"][i]),
-            "observed_az_deg": float(c["observed"][i, 0]),
-            "observed_el_deg": float(c["observed"][i, 1]),
-            "raw_az_deg": float(c["raw"][i, 0]),
-            "raw_el_deg": float(c["raw"][i, 1]),
-            "dx_arcsec": float(c["dx"][i]),
-            "de_arcsec": float(c["de"][i]),
-            "ds_arcsec": float(c["ds"][i]),
-            "used": bool(c["used"][i]),
-            "masked": bool(c["masked"][i]),
-            "outlier": bool(c["outlier"][i]),
-        }
+        dict(
+            zip(
+                keys,
+                (
+                    int(c["row"][i]),
+                    int(c["line"][i]),
+                    float(c["observed"][i, 0]),
+                    float(c["observed"][i, 1]),
+                    float(c["raw"][i, 0]),
+                    float(c["raw"][i, 1]),
+                    float(c["dx"][i]),
+                    float(c["de"][i]),
+                    float(c["ds"][i]),
+                    bool(c["used"][i]),
+                    bool(c["masked"][i]),
+                    bool(c["outlier"][i]),
+                ),
+            )
+        )
         for i in range(len(run))
     ]
 
@@ -106,12 +127,15 @@ def format_listing(run, result, masked=None) -> str:
     and ``O`` for a robust fit's outlier. Arguments as :func:`observation_entries`."""
     c = _columns(run, result, masked)
     azimuth = getattr(run, "azimuth", None)
-    lines = [
-        "Residuals, observed minus model (arcsec); angles in degrees as in the file"
-        + (f" (azimuth {azimuth})" if azimuth else ""),
-        "",
-        "     #  line     Az obs    El obs     Az raw    El raw        dX        dE        dS",
-    ]
+    if _equatorial(run):
+        title = "Residuals, observed minus model (arcsec); hour angle (West +) and declination in degrees"
+        header = "     #  line     HA obs   Dec obs     HA raw   Dec raw        dX        dD        dS"
+    else:
+        title = "Residuals, observed minus model (arcsec); angles in degrees as in the file" + (
+            f" (azimuth {azimuth})" if azimuth else ""
+        )
+        header = "     #  line     Az obs    El obs     Az raw    El raw        dX        dE        dS"
+    lines = [title, "", header]
     for i in range(len(run)):
         flag = "M" if c["masked"][i] else ("O" if c["outlier"][i] else "")
         text = (

@@ -98,6 +98,10 @@ def Equatorial(
     same model (``(H + pi, pi - dec)`` is the flipped side). Fit residuals are ``(dH cos
     dec, d dec)``.
 
+    TPOINT's equatorial terms by name: ``pointax.terms.tpoint(spec, mount="equatorial",
+    latitude=latitude, form="linear" | "rigorous")`` (:mod:`pointax.terms.equatorial`);
+    a run read by :func:`pointax.io.read_tpoint` builds its model with ``run.model(terms)``.
+
     Args:
         terms: error terms acting in the mount's frame (+x West, +y the equator on the
             meridian, +z the celestial pole), e.g. the rigorous rotations of

@@ -258,7 +258,8 @@ def _on_axis(direction, axis: int):
 def nearest_solution(a1, a2, near, at_pole=False):
     """Of the two mechanical solutions ``(a1, a2)`` and ``(a1 + pi, pi - a2)`` ("over
     the top") of a two-axis mount, the one nearer ``near``, with axis 1 on the branch
-    of ``near`` (within pi of it). At the pole (``at_pole``: the direction lies along
+    of ``near`` (within pi of it). Axis 2 of the over-the-top solution is compared
+    with ``near`` modulo a turn (``-180 deg - a2`` is ``180 deg - a2``). At the pole (``at_pole``: the direction lies along
     the first axis) every axis-1 angle points the same way: ``near``'s is kept."""
     a1, a2, _ = _nearest(a1, a2, near[0], near[1], at_pole)
     return jnp.stack([a1, a2])
@@ -272,7 +273,10 @@ def _nearest(a1, a2, near1, near2, at_pole):
     a1_b = near1 + wrap_pi(a1 + jnp.pi - near1)
     a2_b = jnp.pi - a2
     dist_a = jnp.abs(a1_a - near1) + jnp.abs(a2 - near2)
-    dist_b = jnp.abs(a1_b - near1) + jnp.abs(a2_b - near2)
+    # Axis 2 of the over-the-top solution compared modulo a turn: an equatorial mount
+    # past the south pole reads -180 deg - dec (TheSkyX writes -179.85), the same
+    # reading as 180 deg - dec.
+    dist_b = jnp.abs(a1_b - near1) + jnp.abs(wrap_pi(a2_b - near2))
     first = dist_a <= dist_b
     return jnp.where(first, a1_a, a1_b), jnp.where(first, a2, a2_b), first
 

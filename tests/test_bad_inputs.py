@@ -298,7 +298,7 @@ def _(tmp):
     px.io.read_gpoint(_write(tmp, "run.txt", lines))
 
 
-@case("gpoint-equatorial", "error", r"run\.txt:2:", "equatorial", error=FileFormatError)
+@case("gpoint-gem-header-altaz-rows", "error", r"run\.txt:3:", "gem row has 8 fields", error=FileFormatError)
 def _(tmp):
     px.io.read_gpoint(_gpoint_with(tmp, 2, text="# gem -20.8 -32.53 1850.0"))
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, MMT_DAT
+from conftest import EXAMPLES, MMT_DAT, REPO
 
 import pointax as px
 from pointax.io import (
@@ -61,7 +61,8 @@ def test_formats_of_the_bundled_files(xy_file):
     assert detect_format(SUN_SITE) == "sun"
     assert detect_format(xy_file) == "xy"
     assert detect_format(EXAMPLES / "data") == "paint"  # a folder
-    assert set(RUN_FORMATS) == {"tpoint", "gpoint", "paint", "sun", "xy"}
+    assert set(RUN_FORMATS) == {"tpoint", "gpoint", "paint", "sun", "xy", "offsets"}
+    assert detect_format(REPO / "tests" / "data" / "offsets" / "radio_xel.csv") == "offsets"
 
 
 def test_formats_of_the_shared_files(shared_data):

@@ -644,10 +644,159 @@ def test_bad_arguments(copy):
         read_paint(copy, focal_spot="heliOS")
     edit(copy / "heliostat-properties.json", lambda d: d["kinematics_properties"].update(concentrator_translation_e=0.1))
     assert read_paint(copy).mirror_offset is False
-    with pytest.raises(ValueError, match="mirror_offset"):
-        read_paint(copy, mirror_offset=True)
+    # A concentrator translation across the normal is applied through the chain (it was
+    # refused before both layouts were read): the centre is R1 R2 Tc.
+    off = read_paint(copy, mirror_offset=True)
+    np.testing.assert_allclose(off.mirror_centre, paint.mirror_centre(off.heliostat, off.measured_normal), atol=1e-15)
 
 
 def test_sample_id_from_file_name(copy):
     s = read_calibration(copy / "field3-calibration-properties.json")
     assert s.sample_id == "field3"
+
+
+# --------------------------------------------------------------------------- both layouts
+
+
+@pytest.fixture(scope="module")
+def ac43(shared_data) -> Path:
+    folder = shared_data / "paint" / "AC43-schema1"
+    if not folder.is_dir():
+        pytest.skip(f"{folder} not found")
+    return folder
+
+
+def test_layout_of_current_files(aa39, run):
+    h = read_heliostat(aa39 / "heliostat-properties.json")
+    assert h.layout == paint.LAYOUT_CURRENT == "kinematics_properties (current)"
+    assert run.layout == h.layout and h.kinematics_key == "kinematics_properties"
+    np.testing.assert_array_equal(h.file_orientation, h.initial_orientation)
+    assert [a.type_axis for a in h.actuators] == ["linear", "linear"]
+
+
+def test_schema1_heliostat_properties(ac43):
+    """Values read by hand from AC43-schema1/heliostat-properties.json."""
+    h = read_heliostat(ac43 / "heliostat-properties.json")
+    assert h.layout == paint.LAYOUT_SCHEMA1 == "kinematic_properties (schema 1)"
+    assert h.kinematics_key == "kinematic_properties"
+    np.testing.assert_array_equal(h.file_orientation, [0, 0, 1])
+    np.testing.assert_array_equal(h.initial_orientation, [0, -1, 0])  # Re(pi/2) (0, 0, 1)
+    assert [a.type_axis for a in h.actuators] == ["ideal", "ideal"]
+    a1, a2 = h.actuators
+    assert (a1.increment, a1.initial_stroke_length, a1.initial_angle, a1.clockwise) == (154166.6667, 0.071051608, 0.007796821, False)
+    assert (a2.initial_stroke_length, a2.initial_angle, a2.clockwise, a2.max_increment) == (0.076357226, 0.933083607, True, 74920)
+    np.testing.assert_array_equal(h.joint_translations, [[0, 0, 0], [0, 0, 0.314999997615814]])
+    np.testing.assert_array_equal(h.concentrator_translation, [0, -0.177550002932549, -0.404500007629395])
+    assert h.renovation == "2021-03-04"
+    from pointax import HeliostatMount
+
+    mount = HeliostatMount.from_paint(h)  # the nominal mount builds
+    np.testing.assert_array_equal(np.asarray(mount.sign), [-1.0, 1.0])
+
+
+def _angles(a, b):
+    return np.arccos(np.clip(np.sum(a * b, axis=-1), -1, 1))
+
+
+def test_schema1_run_reports_layout_and_fits(ac43):
+    """AC43 (schema 1) read with the current chain: nominal errors of the size DESIGN
+    gives for the current layout's heliostats (13-42 mrad RMS; measured 6.0 and 16.9
+    mrad, RMS 12.7), mrad-level after a fit, and hundreds of mrad if (0, 0, 1) were
+    taken literally as the current chain's orientation."""
+    import pointax as px
+    from pointax.heliostat import _errors
+
+    r = read_paint(ac43)  # the tower file is in the parent folder
+    assert r.layout == paint.LAYOUT_SCHEMA1 and len(r) == 2
+    assert r.sample_ids == ["62900", "72752"]
+    nominal = _nominal_normal(r.heliostat, r.motor)  # DESIGN's Re(theta1) Rn(theta2) (0, 0, 1), numpy
+    before = _angles(nominal, r.measured_normal)
+    assert np.all((before > 3e-3) & (before < 25e-3))
+    assert 10e-3 < math.sqrt(np.mean(before**2)) < 45e-3
+    model = px.heliostat_model(r, "t1u t2n")  # 2 samples: 4 residuals, at most 2 parameters
+    np.testing.assert_allclose(_errors(model, r.observations), before, rtol=1e-9)
+    # Taken literally, (0, 0, 1) in Re(theta1 - pi/2) Ru(theta2) is no mirror normal at all.
+    t1 = np.arctan2(-nominal[:, 1], nominal[:, 2])
+    literal = np.stack([np.zeros(2), -np.sin(t1 - np.pi / 2), np.cos(t1 - np.pi / 2)], axis=-1)
+    assert np.all(_angles(literal, r.measured_normal) > 0.3)
+    for mirror_offset in (False, True):
+        obs = read_paint(ac43, mirror_offset=mirror_offset).observations
+        result = px.fit(model, obs, loss="linear")
+        assert bool(result.converged)
+        after = _errors(result.model, obs)
+        assert np.all(after < 3e-3), after  # measured 1.9, 1.2 mrad (2.5, 1.6 with the offset)
+        assert 2 < abs(result.value("t1u")) < 15  # mrad: mostly a turn of axis 1 about Up (measured 6.0)
+
+
+def test_schema1_mirror_centre(ac43):
+    """The translations of schema 1 (joint 2 and concentrator) move the reflection point
+    by ~0.2 m and the normals by ~1 mrad; the normals bisect the sun and the ray from
+    that point, and the centre follows the chain (hand-worked poses below)."""
+    plain = read_paint(ac43)
+    off = read_paint(ac43, mirror_offset=True)
+    assert off.mirror_offset and np.all(plain.mirror_centre == 0)
+    turn = _angles(plain.measured_normal, off.measured_normal)
+    assert np.all((turn > 0.5e-3) & (turn < 2e-3))  # measured 0.95, 1.05 mrad
+    distance = np.linalg.norm(off.mirror_centre, axis=-1)
+    assert np.all((distance > 0.1) & (distance < 0.5))
+    np.testing.assert_allclose(off.mirror_centre, paint.mirror_centre(off.heliostat, off.measured_normal), atol=1e-15)
+    ray = off.focal_spot_enu - off.mirror_centre
+    b = off.sun + ray / np.linalg.norm(ray, axis=-1)[:, None]
+    np.testing.assert_allclose(off.measured_normal, b / np.linalg.norm(b, axis=-1)[:, None], atol=1e-12)
+    h = off.heliostat
+    t2, tc = np.array([0, 0, 0.314999997615814]), np.array([0, -0.177550002932549, -0.404500007629395])
+    # mirror vertical, facing South: theta1 = pi/2, theta2 = 0, both rotations the identity
+    np.testing.assert_allclose(paint.mirror_centre(h, [0.0, -1.0, 0.0]), t2 + tc, atol=1e-15)
+    # mirror facing up: theta1 = 0, Re(-pi/2) (x, y, z) = (x, z, -y)
+    s = t2 + tc
+    np.testing.assert_allclose(paint.mirror_centre(h, [0.0, 0.0, 1.0]), [s[0], s[2], -s[1]], atol=1e-15)
+    # facing East-up: theta1 = 0, theta2 = 45 deg, Ru(45 deg) turns tc first
+    c, si = math.cos(math.pi / 4), math.sin(math.pi / 4)
+    inner = t2 + np.array([c * tc[0] - si * tc[1], si * tc[0] + c * tc[1], tc[2]])
+    np.testing.assert_allclose(paint.mirror_centre(h, [si, 0.0, c]), [inner[0], inner[2], -inner[1]], atol=1e-15)
+
+
+def _to_schema1(d):
+    """The copy's heliostat file in the schema-1 layout (as AC43 writes it)."""
+    kin = d.pop("kinematics_properties")
+    for a in kin["actuators"]:
+        a["type_axis"] = "ideal"
+    d["kinematic_properties"] = kin
+    d["initial_orientation"] = [0, 0, 1]
+
+
+def test_schema1_copy_reads_like_the_current_layout(copy):
+    current = read_paint(copy)
+    edit(copy / "heliostat-properties.json", _to_schema1)
+    schema1 = read_paint(copy)
+    assert current.layout == paint.LAYOUT_CURRENT and schema1.layout == paint.LAYOUT_SCHEMA1
+    np.testing.assert_array_equal(schema1.measured_normal, current.measured_normal)
+    np.testing.assert_array_equal(schema1.heliostat.initial_orientation, current.heliostat.initial_orientation)
+
+
+def test_schema1_errors_name_file_and_field(copy):
+    path = copy / "heliostat-properties.json"
+    text = edit(path, lambda d: (_to_schema1(d), d["kinematic_properties"]["actuators"][1].update(offset="x")))
+    with pytest.raises(PaintFormatError) as info:
+        read_paint(copy)
+    e = info.value
+    assert e.path == str(path) and e.field == "kinematic_properties.actuators[1].offset"
+    assert e.line == line_of(text, '"offset": "x"') and "number" in str(e)
+
+    edit(path, lambda d: d["kinematic_properties"]["actuators"][1].update(offset=0.34, type_axis="rotary"))
+    with pytest.raises(PaintFormatError, match=r"kinematic_properties\.actuators\[1\]\.type_axis.*'rotary'.*'ideal'"):
+        read_heliostat(path)
+    edit(path, lambda d: (d["kinematic_properties"]["actuators"][1].update(type_axis="ideal"), d["kinematic_properties"].pop("joint_translation_u_2")))
+    with pytest.raises(PaintFormatError) as info:
+        read_heliostat(path)
+    assert info.value.field == "kinematic_properties.joint_translation_u_2" and "missing" in str(info.value)
+
+    edit(path, lambda d: d["kinematic_properties"].update(joint_translation_u_2=0.3))
+    edit(path, lambda d: d.update(kinematics_properties=d["kinematic_properties"]))
+    with pytest.raises(PaintFormatError, match="kinematic_properties.*beside kinematics_properties.*not both"):
+        read_heliostat(path)
+    edit(path, lambda d: (d.pop("kinematics_properties"), d.pop("kinematic_properties")))
+    with pytest.raises(PaintFormatError) as info:
+        read_heliostat(path)
+    assert info.value.field == "kinematics_properties" and info.value.line == 1
+    assert "is missing" in str(info.value) and "kinematic_properties" in str(info.value)

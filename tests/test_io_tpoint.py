@@ -384,9 +384,10 @@ def test_missing_altaz_option(tmp_path):
         read_tpoint(path)
 
 
-def test_equatorial_option_named(tmp_path):
+def test_altaz_rows_under_an_equatorial_option_are_refused(tmp_path):
+    # Four numbers under ': EQUAT' are hour angles (h) and declinations: 192.386 h is not one.
     path = write(tmp_path, ["Test run", ": EQUAT", "+31 41 19.6"] + ROWS)
-    with raises_at(path, 3, r"ALTAZ", r"EQUAT"):
+    with raises_at(path, 4, r"field 1 \(star HA\) 192.386 h is outside -24..24 h"):
         read_tpoint(path)
 
 

@@ -16,6 +16,7 @@ import tpoint_numpy as ref
 from conftest import MMT_DAT, MMT_MOD
 
 from pointax.cli import main
+from pointax.io import TpointFormatError
 from pointax.procedures import ProcedureError, Runner, Session
 from pointax.procedures.parser import resolve
 from pointax.procedures.session import read_run
@@ -247,8 +248,6 @@ def test_end_stops_a_script_and_settings_are_noted(tmp_path, capsys):
 
 
 def test_mount_option(tmp_path, capsys):
-    assert main(["tpoint", "--mount", "equatorial"]) == 2
-    assert "equatorial runs are not supported yet (issue 19)" in capsys.readouterr().err
     # A file without a mount record is read as alt-az with --mount altaz (the default),
     # its line numbers those of the file.
     text = MMT_DAT.read_text().replace(": ALTAZ\n", "")
@@ -257,8 +256,11 @@ def test_mount_option(tmp_path, capsys):
     run = read_run(plain, "altaz", "S-E")
     _, _, lines = ref.read_run(plain)
     np.testing.assert_array_equal(run.lines, lines)
-    with pytest.raises(ValueError, match="not supported yet"):
+    # Read as equatorial, the four numbers are hour angles and declinations: refused.
+    with pytest.raises(TpointFormatError, match=r"plain\.dat:\d+: observation record: field 1 \(star HA\)"):
         read_run(plain, "equatorial")
+    # A file that names its mount is read as it says, whatever --mount.
+    assert read_run(MMT_DAT, "equatorial", "S-E").mount == "altaz"
 
 
 def test_errors_before_data(tmp_path):

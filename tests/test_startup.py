@@ -202,6 +202,7 @@ def test_the_light_copies_of_library_names_equal_the_library():
     from pointax.io import FOCAL_SPOT_METHODS, RUN_FORMATS
     from pointax.model import RESIDUAL_FORMS
     from pointax.mounts import AZIMUTH_CONVENTIONS
+    from pointax.io.tpoint import MOUNTS as TPOINT_MOUNTS
     from pointax.procedures.session import MOUNTS as PROCEDURE_MOUNTS
     from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
     from pointax.terms.heliostat import HELIOSTAT_DEFAULT
@@ -220,7 +221,8 @@ def test_the_light_copies_of_library_names_equal_the_library():
     assert choices.TURNTABLE_MODELS == tuple(TURNTABLE_MODELS)
     assert choices.XY_FAMILIES == tuple(FAMILIES)
     assert choices.SOLUTIONS == tuple(SOLUTIONS)
-    assert choices.PROCEDURE_MOUNTS == tuple(PROCEDURE_MOUNTS)
+    assert choices.TPOINT_MOUNTS == tuple(PROCEDURE_MOUNTS) == tuple(TPOINT_MOUNTS)
+    assert choices.BASIC_EQUATORIAL == tuple(terms.BASIC_EQUATORIAL)
     assert choices.CENTROID_METHODS == METHODS == tuple(CENTROID_METHODS)
     assert choices.RUN_FORMATS == tuple(RUN_FORMATS)
 

@@ -14,7 +14,7 @@ automatic model building.
 from __future__ import annotations
 
 from .comparison import BEFORE, Comparison, FamilyStats, compare
-from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, family_model
+from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, EQUATORIAL_FAMILIES, EQUATORIAL_HARMONICS, family_model
 from .folds import fold_indices, holdout_indices
 from .model_building import STEP_TOLERANCE, BuildStep, ModelBuild, build_model
 from .statistics import PER_AXIS, AxisRMS, axis_rms, information_criteria
@@ -22,6 +22,8 @@ from .statistics import PER_AXIS, AxisRMS, axis_rms, information_criteria
 __all__ = [
     "ALTAZ_FAMILIES",
     "ALTAZ_HARMONICS",
+    "EQUATORIAL_FAMILIES",
+    "EQUATORIAL_HARMONICS",
     "BEFORE",
     "PER_AXIS",
     "STEP_TOLERANCE",

@@ -50,7 +50,7 @@ BEFORE = "before correction"
 """Label of the row with no terms fitted."""
 
 
-def _families(families, obs: Observations, naming: str, form: str) -> dict[str, Model]:
+def _families(families, obs: Observations, naming: str, form: str, mount=None) -> dict[str, Model]:
     """``compare``'s families as ``{label: model}``, names resolved on the observations'
     mount (:func:`family_model`), each checked to fit these observations."""
     if isinstance(families, Mapping):
@@ -68,7 +68,7 @@ def _families(families, obs: Observations, naming: str, form: str) -> dict[str, 
         if not isinstance(label, str) or not label or label == BEFORE:
             raise ValueError(f"bad family label {label!r}: use a non-empty string other than {BEFORE!r}")
         if isinstance(family, str) or (isinstance(family, Sequence) and all(isinstance(t, str) for t in family)):
-            model = family_model(family, obs, naming=naming, form=form)
+            model = family_model(family, obs if mount is None else mount, naming=naming, form=form)
         elif isinstance(family, Model):
             model = family
         else:
@@ -301,6 +301,7 @@ def compare(
     solver: str = "lm",
     max_steps: int = 256,
     progress: bool = False,
+    mount=None,
 ) -> Comparison:
     """Fit several model families to the same stars and compare them fairly.
 
@@ -319,6 +320,8 @@ def compare(
             E``); default 'angle' on an X-Y mount (the paper's eqs 21-23), 'sky' on
             others (the first-axis angle residual grows as ``sec E`` towards the zenith).
         naming, form: how family names resolve (:func:`family_model`).
+        mount: the mount family names resolve on (default: the observations'; an
+            equatorial run read by :func:`pointax.io.read_tpoint` gives its latitude).
         solver, max_steps: passed to :func:`pointax.fit`.
         progress: show a progress bar of the fits (families and folds) on standard
             error when it is a terminal (:func:`pointax.progress.progress_bar`).
@@ -330,8 +333,10 @@ def compare(
     Raises:
         ValueError, TypeError: bad families, observations or scheme (the message says which).
     """
+    if mount is None and getattr(observations, "mount", None) == "equatorial":
+        mount = observations  # family names resolve on its latitude
     scheme = evaluation_scheme(observations, holdout, folds, seed)
-    models = _families(families, scheme.obs, naming, form)
+    models = _families(families, scheme.obs, naming, form, mount)
     mount = next(iter(models.values())).mount
     per_axis = resolve_per_axis(mount, per_axis)
     cos2 = second_axis_cosines(mount, scheme.obs, per_axis)

@@ -1,10 +1,13 @@
 """Model families named for a mount: the level-mount paper's X-Y families and TPOINT's
-alt-az sets, resolved from names to :class:`pointax.Model` objects (:func:`family_model`).
+alt-az and equatorial sets, resolved from names to :class:`pointax.Model` objects
+(:func:`family_model`).
 
 For an X-Y mount the level-mount paper's families (``basic``, ``harmonic``,
 ``rotation``, ``linearised``) and term names of :mod:`pointax.terms.xy`; for an alt-az
 mount ``basic`` (TPOINT's eight terms), ``harmonic`` (those plus
-:data:`ALTAZ_HARMONICS`) and TPOINT term names.
+:data:`ALTAZ_HARMONICS`) and TPOINT term names; for an equatorial mount ``basic``
+(TPOINT's six: IH ID CH NP MA ME), ``flexure`` (those and TF FO DAF), ``harmonic``
+(those and :data:`EQUATORIAL_HARMONICS`) and TPOINT's equatorial term names.
 """
 
 from __future__ import annotations
@@ -13,12 +16,12 @@ from collections.abc import Iterable
 
 from .. import terms as term_library
 from ..model import Model
-from ..mounts import AZIMUTH_CONVENTIONS, AltAzMount, Mount, XYMount
+from ..mounts import AZIMUTH_CONVENTIONS, AltAzMount, EquatorialMount, Mount, XYMount
 from ..observations import Observations
 from ..terms import xy as xy_terms
 from ..terms.base import Term
 
-__all__ = ["ALTAZ_FAMILIES", "ALTAZ_HARMONICS", "family_model"]
+__all__ = ["ALTAZ_FAMILIES", "ALTAZ_HARMONICS", "EQUATORIAL_FAMILIES", "EQUATORIAL_HARMONICS", "family_model"]
 
 ALTAZ_HARMONICS: tuple[str, ...] = ("HACA2", "HASA2", "HECA2", "HESA2", "HSCA2", "HSSA2")
 """The harmonic set the alt-az ``harmonic`` family adds to TPOINT's basic eight: the
@@ -35,12 +38,32 @@ ALTAZ_FAMILIES: dict[str, tuple[str, ...]] = {
 (only with ``naming="gpoint"``)."""
 
 
+EQUATORIAL_HARMONICS: tuple[str, ...] = ("HHSH2", "HHCH2", "HDSH2", "HDCH2", "HXSH2", "HXCH2")
+"""The harmonic set the equatorial ``harmonic`` family adds: the second hour-angle
+harmonics (sin 2H, cos 2H) of hour angle, declination and cross-declination (TPOINT's
+names, :mod:`pointax.terms.harmonic`)."""
+
+EQUATORIAL_FAMILIES: dict[str, tuple[str, ...]] = {
+    "basic": term_library.BASIC_EQUATORIAL,
+    "flexure": term_library.BASIC_EQUATORIAL + ("TF", "FO", "DAF"),
+    "harmonic": term_library.BASIC_EQUATORIAL + ("TF", "FO", "DAF") + EQUATORIAL_HARMONICS,
+}
+"""Equatorial family name -> term names: ``basic`` is TPOINT's six basic terms (IH ID CH
+NP MA ME), ``flexure`` adds tube flexure TF, fork flexure FO and declination-axis
+flexure DAF, ``harmonic`` adds :data:`EQUATORIAL_HARMONICS` to those."""
+
+
 def _mount_of(obs: Observations) -> Mount:
     convention = obs.convention
     if convention == "xy":
         return XYMount()
     if convention in AZIMUTH_CONVENTIONS:
         return AltAzMount(azimuth=convention)
+    if convention == "ha-dec":
+        raise ValueError(
+            "equatorial observations do not carry the site's latitude: name the families for a "
+            "pointax.EquatorialMount(latitude), or pass the run (pointax.io.read_tpoint) instead of its observations"
+        )
     raise ValueError(
         f"cannot build a model family by name for observations with convention {convention!r}: "
         "names are known for X-Y ('xy') and alt-az ('N-E', 'S-E', 'S-W') data; pass pointax.Model objects"
@@ -95,6 +118,13 @@ def _altaz_terms(tokens: list[str], naming: str, form: str) -> tuple[Term, ...]:
     return term_library.tpoint(names, form=form)
 
 
+def _equatorial_terms(tokens: list[str], form: str, latitude) -> tuple[Term, ...]:
+    names: list[str] = []
+    for token in tokens:
+        names.extend(EQUATORIAL_FAMILIES.get(token.lower(), (token,)))
+    return term_library.tpoint(names, form=form, mount="equatorial", latitude=latitude)
+
+
 def family_model(
     spec: str | Iterable[str], mount: Mount | Observations, *, naming: str = "tpoint", form: str = "linear"
 ) -> Model:
@@ -112,16 +142,23 @@ def family_model(
               ``naming="gpoint"``); TPOINT term names (:func:`pointax.terms.tpoint`), or
               with ``naming="gpoint"`` gpoint's names too
               (:func:`pointax.terms.gpoint_terms`: lower-case ``ia``, extras).
-        mount: the mount, or observations whose convention names it ('xy', or an
-            azimuth convention for alt-az).
+            * Equatorial mount: ``basic``, ``flexure``, ``harmonic``
+              (:data:`EQUATORIAL_FAMILIES`) and TPOINT's equatorial term names.
+        mount: the mount, observations whose convention names it ('xy', or an
+            azimuth convention for alt-az), or a TPOINT run (an equatorial one gives
+            its latitude).
         naming: 'tpoint' or 'gpoint' (alt-az term names only).
-        form: 'linear' or 'rigorous' (alt-az TPOINT terms only).
+        form: 'linear' or 'rigorous' (TPOINT terms only).
 
     Raises:
         ValueError: an unknown name, a term named twice, or a mount without names.
     """
     if naming not in ("tpoint", "gpoint"):
         raise ValueError(f"naming must be 'tpoint' or 'gpoint', got {naming!r}")
+    if getattr(mount, "mount", None) == "equatorial" and hasattr(mount, "latitude"):
+        mount = EquatorialMount(mount.latitude)  # a TPOINT run
+    elif hasattr(mount, "observations"):
+        mount = mount.observations
     if isinstance(mount, Observations):
         mount = _mount_of(mount)
     tokens = _tokens(spec)
@@ -131,4 +168,8 @@ def family_model(
         return Model(mount, _xy_terms(tokens))
     if isinstance(mount, AltAzMount):
         return Model(mount, _altaz_terms(tokens, naming, form))
+    if isinstance(mount, EquatorialMount):
+        if naming != "tpoint":
+            raise ValueError("equatorial families are named with TPOINT's names (naming='tpoint')")
+        return Model(mount, _equatorial_terms(tokens, form, mount.latitude))
     raise ValueError(f"no named families for a {type(mount).__name__}; pass pointax.Model objects")

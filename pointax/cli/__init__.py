@@ -10,6 +10,8 @@
     pointax plot DATA [fit options] [--kind summary|residuals|sky|...] [--tpoint 'G S A'] -o FILE.png
     pointax report DATA [fit options] -o report.html
     pointax tpoint [SCRIPT ...] [--mount altaz|equatorial] [--azimuth S-E] [--residuals sky|tpoint]
+    pointax plan --site LAT,LON,HEIGHT --time ISO [--terms ...] [-n 40] [--target-rms ARCSEC] [--json]
+    pointax plan --sun --site LAT,LON,HEIGHT --time START --days 30 [--params alpha0=...] [--json]
 
 Exit status, the same for every subcommand (:mod:`pointax.cli.common`): **0** success;
 **1** the input was good but some item did not succeed (a fit that did not converge, a
@@ -72,6 +74,10 @@ shaped like the level-mount paper's Table 3 (:func:`pointax.compare`).
 ``--reject SIGMAS`` (robust fit); ``--list`` prints the residual listing and ``--json``
 has per-observation entries (:mod:`pointax.listing`, :mod:`pointax.masking`).
 
+``pointax plan`` chooses the stars (or, with ``--sun``, the sun times) of the next
+pointing run that pin the model down best and prints them in observing order with the
+predicted accuracy of the fit (:mod:`pointax.cli.plan`, :func:`pointax.plan_run`).
+
 ``pointax tpoint`` runs TPOINT commands (INDAT, USE, FIT, MASK, OUTMOD, PROC, ...) from
 script files in turn or from standard input (:mod:`pointax.cli.tpoint`,
 :mod:`pointax.procedures`).
@@ -84,7 +90,7 @@ subcommand's module imports the library only in its ``run_*`` function.
 
 One module per subcommand: :mod:`pointax.cli.fit`, :mod:`pointax.cli.command`,
 :mod:`pointax.cli.fit_network`, :mod:`pointax.cli.centroid`, :mod:`pointax.cli.compare`,
-:mod:`pointax.cli.plot` (figures of a fit, :mod:`pointax.plots`), :mod:`pointax.cli.report` (an
+:mod:`pointax.cli.plot` (figures of a fit, :mod:`pointax.plots`), :mod:`pointax.cli.plan` (planning a run), :mod:`pointax.cli.report` (an
 HTML report, :mod:`pointax.report`), :mod:`pointax.cli.tpoint` (TPOINT procedures).
 
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
@@ -104,6 +110,7 @@ from .common import print_warnings
 from .compare import add_compare_parser
 from .fit import add_fit_parser
 from .fit_network import add_fit_network_parser
+from .plan import add_plan_parser
 from .plot import add_plot_parser
 from .report import add_report_parser
 from .tpoint import add_tpoint_parser
@@ -112,7 +119,7 @@ __all__ = ["main", "build_parser"]
 
 _PROG = "pointax"
 
-SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser, add_tpoint_parser, add_plot_parser, add_report_parser)
+SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser, add_tpoint_parser, add_plot_parser, add_report_parser, add_plan_parser)
 """Each adds its subcommand to the parser, with its ``run`` function as a default."""
 
 

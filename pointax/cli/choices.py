@@ -25,6 +25,8 @@ __all__ = [
     "SOLUTIONS",
     "CENTROID_METHODS",
     "RUN_FORMATS",
+    "TPOINT_MOUNTS",
+    "BASIC_EQUATORIAL",
 ]
 
 SOLVERS = tuple(SOLVER_NAMES)
@@ -66,8 +68,11 @@ SOLUTIONS = ("nearest", "normal", "flipped")
 CENTROID_METHODS = ("auto", "intensity", "limb")
 """Centroid methods: :data:`pointax.sunsensor.centroid.METHODS`."""
 
-RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy")
+RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy", "offsets")
 """Pointing-run formats :func:`pointax.io.load_run` reads: :data:`pointax.io.RUN_FORMATS`."""
 
-PROCEDURE_MOUNTS = ("altaz", "equatorial")
-"""Mounts ``pointax tpoint --mount`` names: :data:`pointax.procedures.session.MOUNTS`."""
+TPOINT_MOUNTS = ("altaz", "equatorial")
+"""Mounts of TPOINT runs (``--mount``): :data:`pointax.io.tpoint.MOUNTS`."""
+
+BASIC_EQUATORIAL = ("IH", "ID", "CH", "NP", "MA", "ME")
+"""TPOINT's six basic equatorial terms: :data:`pointax.terms.BASIC_EQUATORIAL`."""

@@ -1,6 +1,6 @@
 """``pointax compare``: fit several model families to one pointing run and compare them.
 
-    pointax compare DATA --families basic,harmonic [--mount altaz|xy] [--format tpoint|gpoint|xy]
+    pointax compare DATA --families basic,harmonic [--mount altaz|equatorial|xy] [--format tpoint|gpoint|xy]
                     [--azimuth N-E|S-E|S-W] [--holdout FRACTION | --folds K] [--seed N]
                     [--per-axis angle|sky] [--form linear|rigorous] [--json]
 
@@ -12,7 +12,9 @@ DATA is a TPOINT input file (``--format tpoint``; ``--azimuth`` says how it coun
 azimuth), an RTS2 gpoint file (``--format gpoint``) or an X-Y mount run in the text
 format below (``--format xy`` or ``--mount xy``). Without ``--format`` the format is
 told from the file (:func:`pointax.io.detect_format`); without ``--mount`` the mount is
-``xy`` for an X-Y run and ``altaz`` otherwise.
+``xy`` for an X-Y run, what a TPOINT file's option record says (``: ALTAZ``,
+``: EQUAT``; a file that names none needs ``--mount altaz`` or ``--mount
+equatorial``) and ``altaz`` for gpoint.
 
 ``--families`` lists the families: family names separated by commas
 (``basic,harmonic``), or families separated by ``;``, each a family name, a term list
@@ -20,7 +22,9 @@ or ``label=terms`` (``"basic;IA IE CA NPAE AN AW TF TX HACA2"``,
 ``"tpoint8=basic;mine=basic HACA2 HESE2"``). Names are those of
 :func:`pointax.analysis.family_model`: alt-az ``basic`` (TPOINT's eight), ``harmonic``
 (those and the second azimuth harmonics), TPOINT term names, and with ``--format
-gpoint`` gpoint's names (``gpoint`` = gpoint's seven, ``ia``, extras); X-Y ``basic``,
+gpoint`` gpoint's names (``gpoint`` = gpoint's seven, ``ia``, extras); equatorial
+``basic`` (IH ID CH NP MA ME), ``flexure`` (those and TF FO DAF), ``harmonic`` (those
+and the second hour-angle harmonics) and TPOINT's equatorial names; X-Y ``basic``,
 ``harmonic``, ``rotation``, ``linearised`` and term names of :mod:`pointax.terms.xy`.
 ``--family SPEC`` (repeatable) adds one family whose terms may contain ``;`` (gpoint
 extras such as ``az:sincos:az;el:2;2``).
@@ -65,6 +69,8 @@ _PREFIX = "pointax compare"
 def _known_names(mount: str, naming: str) -> set[str]:
     if mount == "xy":
         return set(choices.XY_FAMILIES) | {"linearized"}
+    if mount == "equatorial":
+        return {"basic", "flexure", "harmonic"}
     names = {"basic", "harmonic"}
     return names | {"gpoint"} if naming == "gpoint" else names
 
@@ -120,7 +126,11 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
         "--family", action="append", default=None, metavar="SPEC", help="one more family (may contain ';'); repeatable"
     )
     p.add_argument(
-        "--mount", choices=["altaz", "xy"], default=None, help="mount kind (default: xy for an X-Y run, else altaz)"
+        "--mount",
+        choices=["altaz", "equatorial", "xy"],
+        default=None,
+        help="mount kind (default: xy for an X-Y run, a TPOINT run's own option record (': ALTAZ', ': EQUAT'), "
+        "altaz for gpoint); for a TPOINT file that names no mount, altaz or equatorial",
     )
     p.add_argument(
         "--format",
@@ -183,8 +193,18 @@ def _observations(args):
     if fmt == "gpoint":
         if args.azimuth != "N-E":
             raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
-        return load_run(args.data, "gpoint").observations, "gpoint", "gpoint", "altaz"
-    return load_run(args.data, "tpoint", azimuth=args.azimuth).observations, "tpoint", "tpoint", "altaz"
+        run = load_run(args.data, "gpoint")
+        if run.mount == "gem" or args.mount == "equatorial":
+            raise ValueError(
+                f"{args.data}: pointax compare reads gpoint's alt-az runs"
+                + ("; this is a GEM run" if run.mount == "gem" else " (--mount equatorial)")
+            )
+        return run.observations, "gpoint", "gpoint", "altaz"
+    run = load_run(args.data, "tpoint", azimuth=args.azimuth, mount=args.mount)
+    if run.mount == "equatorial" and args.azimuth != "N-E":
+        raise ValueError(f"{args.data}: --azimuth applies to alt-az runs; this run is equatorial")
+    # The run itself, not its observations: an equatorial run's latitude names its families' mount.
+    return run, "tpoint", "tpoint", run.mount
 
 
 def _comparison(args):

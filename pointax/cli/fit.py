@@ -33,7 +33,7 @@ __all__ = [
     "run_fit",
 ]
 
-FIT_FORMATS = ("tpoint", "paint", "gpoint")
+FIT_FORMATS = ("tpoint", "paint", "gpoint", "offsets")
 """The run formats ``pointax fit`` fits."""
 
 _PREFIX = "pointax"
@@ -54,12 +54,16 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     output ones (``--json``, ``--list``, ``--plot``, ``--write-model``) to ``parser``;
     returns it. Imports no numerical library."""
     p = parser
-    p.add_argument("data", help="pointing run: TPOINT input file, RTS2 gpoint file or PAINT heliostat folder")
+    p.add_argument(
+        "data", help="pointing run: TPOINT input file, RTS2 gpoint file, table of pointing offsets or PAINT heliostat folder"
+    )
     p.add_argument(
         "--terms",
         default=None,
         help="terms to fit, comma or space separated (default: TPOINT's "
         + ",".join(choices.BASIC_ALTAZ)
+        + "; for equatorial runs "
+        + ",".join(choices.BASIC_EQUATORIAL)
         + "; for paint: "
         + ",".join(choices.HELIOSTAT_DEFAULT)
         + ")",
@@ -81,11 +85,19 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         "Fitted TPOINT terms do not depend on it; directions in ENU do",
     )
     p.add_argument(
+        "--mount",
+        choices=choices.TPOINT_MOUNTS,
+        default=None,
+        help="mount of a TPOINT run whose file names none (no ': ALTAZ' or ': EQUAT' record; TPOINT's default "
+        "is equatorial, but some observatories' files are alt-az)",
+    )
+    p.add_argument(
         "--format",
         choices=list(FIT_FORMATS),
         default=None,
-        help="input format (default: told from the file: a folder is paint, a file tpoint or gpoint; "
-        "gpoint: an RTS2 gpoint altaz-manual or altaz file)",
+        help="input format (default: told from the file: a folder is paint, a file tpoint, gpoint or offsets; "
+        "gpoint: an RTS2 gpoint file; offsets: a table of pointing offsets az el daz del [errors], "
+        "arcsec, cross-elevation, with a header naming the columns)",
     )
     p.add_argument(
         "--loss",
@@ -237,6 +249,8 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
         _check_paint_options(args)
     elif fmt == "gpoint" and args.azimuth != "N-E":
         raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
+    if fmt != "tpoint" and getattr(args, "mount", None) is not None:
+        raise ValueError(f"--mount applies to TPOINT runs whose files name no mount; this is a {fmt} run")
     loss = _loss(args, fmt)
 
     from ..compilation_cache import enable_compilation_cache
@@ -251,21 +265,37 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     from ..fitting import FitOptions, fit
     from ..io.load import load_run
     from ..masking import mask_above, parse_rows
-    from ..mount_models import AltAz
+    from ..mount_models import AltAz, Equatorial
 
     if fmt == "gpoint":
         run = load_run(args.data, "gpoint")
-        spec = args.terms if args.terms is not None else term_library.GPOINT_ALTAZ_TERMS
-        terms = term_library.gpoint_terms(spec, form=args.form)
+        gem = run.mount == "gem"
+        default = term_library.GPOINT_GEM_TERMS if gem else term_library.GPOINT_ALTAZ_TERMS
+        spec = args.terms if args.terms is not None else default
+        latitude = run.latitude if gem else None
+        terms = term_library.gpoint_terms(spec, form=args.form, mount=run.mount, latitude=latitude)
         if output_only and any(t.name != t.name.upper() for t in terms):
             raise ValueError("--write-model writes TPOINT model files; gpoint's lower-case terms have no TPOINT name there")
         # gpoint's names are case-sensitive (ie is not IE): no upper-casing of --fix.
-        fixed = term_library.gpoint_names(args.fix)
-    else:
-        run = load_run(args.data, "tpoint", azimuth=args.azimuth)
+        fixed = term_library.gpoint_names(args.fix, mount=run.mount)
+        if gem:
+            model = Equatorial(terms, latitude=run.latitude, fixed=fixed, residual_form=args.residuals)
+        else:
+            model = AltAz(terms, azimuth=run.azimuth, fixed=fixed, residual_form=args.residuals)
+    elif fmt == "offsets":
+        run = load_run(args.data, "offsets", azimuth=args.azimuth)
         terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
-        fixed = term_library.names(args.fix)
-    model = AltAz(terms, azimuth=run.azimuth, fixed=fixed, residual_form=args.residuals)
+        model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix), residual_form=args.residuals)
+    else:
+        run = load_run(args.data, "tpoint", azimuth=args.azimuth, mount=args.mount)
+        if run.mount == "equatorial":
+            if args.azimuth != "N-E":
+                raise ValueError(f"{args.data}: --azimuth applies to alt-az runs; this run is equatorial")
+            spec = args.terms if args.terms is not None else term_library.BASIC_EQUATORIAL
+            terms = term_library.tpoint(spec, form=args.form, mount="equatorial", latitude=run.latitude)
+        else:
+            terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
+        model = run.model(terms, fixed=term_library.names(args.fix), residual_form=args.residuals)
     options = FitOptions(
         solver=args.solver,
         max_steps=args.max_steps,
@@ -298,9 +328,9 @@ def _fit(args) -> int:
 
         format_of(args.plot)  # an unknown extension fails before the fit is printed
     if args.write_model:
-        from ..io.tpoint import write_model
+        from ..io.tpoint import refraction_arcsec, write_model
 
-        write_model(args.write_model, result)
+        write_model(args.write_model, result, refraction=refraction_arcsec(outcome.run))
     if args.plot:
         _plot(args.plot, outcome)
     if args.json:
@@ -308,7 +338,7 @@ def _fit(args) -> int:
 
         out = {
             "file": args.data,
-            "caption": outcome.run.caption,
+            "caption": getattr(outcome.run, "caption", None),
             "form": args.form,
             "residuals": args.residuals,
             **result.to_dict(),

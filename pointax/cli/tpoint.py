@@ -35,10 +35,10 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("scripts", nargs="*", metavar="SCRIPT", help="command files; file names in them are relative to their folder")
     p.add_argument(
         "--mount",
-        choices=choices.PROCEDURE_MOUNTS,
+        choices=choices.TPOINT_MOUNTS,
         default="altaz",
-        help="mount of runs whose files name none (TPOINT's default is equatorial; default here: altaz). "
-        "equatorial is not supported yet",
+        help="mount of runs whose files name none (TPOINT's default is equatorial; default here: altaz); "
+        "a file with ': ALTAZ' or ': EQUAT' is read as it says",
     )
     p.add_argument(
         "--azimuth",
@@ -63,11 +63,6 @@ def run_tpoint(args: argparse.Namespace) -> int:
     missing = missing_input(args.scripts)
     if missing:
         return error(_PREFIX, missing)
-    if args.mount == "equatorial":
-        return error(
-            _PREFIX,
-            "--mount equatorial: equatorial runs are not supported yet (issue 19); pointax tpoint fits alt-az runs",
-        )
     from ..compilation_cache import enable_compilation_cache
     from ..procedures import ProcedureError, Runner, Session
 

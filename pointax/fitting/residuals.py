@@ -76,7 +76,7 @@ def _tpoint_residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
         observed = mount.angles_of(direction, near=mount.axis_angles(reading))
         offset = model.sky_offset(observed)
         diff = observed - chain if offset is None else observed - chain - offset
-        return jnp.stack([wrap_pi(diff[0]) * jnp.cos(observed[1]), diff[1]])
+        return jnp.stack([wrap_pi(diff[0]) * jnp.cos(observed[1]), wrap_pi(diff[1])])
 
     r = jax.vmap(one)(encoder, target)
     return jnp.where(used[:, None], r, 0.0)

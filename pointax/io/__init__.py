@@ -1,5 +1,6 @@
-"""File formats: TPOINT input and model files; RTS2 gpoint alt-az runs; PAINT heliostat
-calibration data; sun-tracker observation files (pointax's own text format); X-Y mount
+"""File formats: TPOINT input (alt-az and equatorial) and model files; RTS2 gpoint alt-az and German-equatorial runs and gpoint model files; PAINT heliostat
+calibration data (both layouts); tables of pointing offsets (radio telescopes, star
+trackers); sun-tracker observation files (pointax's own text format); X-Y mount
 runs (``L B L0 B0``). :func:`load_run` reads a run in any of them, telling the format
 from the file when it is not given.
 
@@ -19,6 +20,11 @@ _EXPORTS = {
     "GpointRun": "gpoint",
     "parse_gpoint": "gpoint",
     "read_gpoint": "gpoint",
+    "GpointModelFile": "gpoint",
+    "format_gpoint_model": "gpoint",
+    "write_gpoint_model": "gpoint",
+    "read_gpoint_model": "gpoint",
+    "parse_gpoint_model": "gpoint",
     "FOCAL_SPOT_METHODS": "paint",
     "CalibrationSample": "paint",
     "HeliostatProperties": "paint",
@@ -51,6 +57,18 @@ _EXPORTS = {
     "read_model": "tpoint",
     "read_tpoint": "tpoint",
     "write_model": "tpoint",
+    "MountNotGivenError": "tpoint",
+    "refraction_arcsec": "tpoint",
+    "refraction_constants": "refraction",
+    "refract": "refraction",
+    "OFFSET_ROLES": "offsets",
+    "OffsetsFormatError": "offsets",
+    "OffsetsRun": "offsets",
+    "parse_offsets": "offsets",
+    "read_offsets": "offsets",
+    "LAYOUT_CURRENT": "paint",
+    "LAYOUT_SCHEMA1": "paint",
+    "mirror_centre": "paint",
     "XYFormatError": "xy",
     "XYRun": "xy",
     "read_xy_run": "xy",
@@ -62,7 +80,7 @@ _EXPORTS = {
     "load_run": "load",
 }
 
-_SUBMODULES = ("errors", "gpoint", "load", "paint", "sun", "tpoint", "xy")
+_SUBMODULES = ("errors", "gpoint", "load", "offsets", "paint", "refraction", "sexagesimal", "sun", "tpoint", "xy")
 
 __all__ = [
     "RUN_FORMATS",
@@ -88,6 +106,11 @@ __all__ = [
     "GpointRun",
     "parse_gpoint",
     "read_gpoint",
+    "GpointModelFile",
+    "format_gpoint_model",
+    "write_gpoint_model",
+    "read_gpoint_model",
+    "parse_gpoint_model",
     "FOCAL_SPOT_METHODS",
     "CalibrationSample",
     "HeliostatProperties",
@@ -114,6 +137,18 @@ __all__ = [
     "read_model",
     "read_tpoint",
     "write_model",
+    "MountNotGivenError",
+    "refraction_arcsec",
+    "refraction_constants",
+    "refract",
+    "OFFSET_ROLES",
+    "OffsetsFormatError",
+    "OffsetsRun",
+    "parse_offsets",
+    "read_offsets",
+    "LAYOUT_CURRENT",
+    "LAYOUT_SCHEMA1",
+    "mirror_centre",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)

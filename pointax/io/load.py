@@ -8,10 +8,11 @@
 format     what it is                                                  returns
 =========  ==========================================================  ===============
 tpoint     TPOINT input file (:mod:`pointax.io.tpoint`)                TpointRun
-gpoint     RTS2 gpoint alt-az run (:mod:`pointax.io.gpoint`)           GpointRun
+gpoint     RTS2 gpoint run, alt-az or GEM (:mod:`pointax.io.gpoint`)     GpointRun
 paint      PAINT heliostat folder (:mod:`pointax.io.paint`)            PaintRun
 sun        sun observations of a turntable (:mod:`pointax.io.sun`)     SunRun
 xy         X-Y mount run, ``L B L0 B0`` (:mod:`pointax.io.xy`)          XYRun
+offsets    table of pointing offsets (:mod:`pointax.io.offsets`)       OffsetsRun
 =========  ==========================================================  ===============
 
 Detection reads at most the first 64 KiB of a file and never imports a numerical
@@ -26,27 +27,31 @@ from pathlib import Path
 from typing import Any
 
 from .errors import FileFormatError
+from .text import is_number
 
 __all__ = ["RUN_FORMATS", "RUN_OPTIONS", "FormatDetectionError", "detect_format", "load_run"]
 
-RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy")
+RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy", "offsets")
 """The formats :func:`load_run` reads."""
 
 RUN_OPTIONS: dict[str, tuple[str, ...]] = {
-    "tpoint": ("azimuth",),
+    "tpoint": ("azimuth", "mount", "refraction"),
     "gpoint": (),
     "paint": ("focal_spot", "tower", "mirror_offset"),
     "sun": (),
     "xy": (),
+    "offsets": ("columns", "units", "azimuth", "cross_elevation", "sign"),
 }
 """Format -> the keyword options its reader takes."""
 
 _DESCRIPTIONS = {
     "tpoint": "a TPOINT input file (a caption line, then ':' option records, a run-parameters line, data, END)",
-    "gpoint": "an RTS2 gpoint alt-az run (a '# altaz-manual LON LAT ALT' or '# altaz' header line)",
+    "gpoint": "an RTS2 gpoint run (a '# altaz-manual|altaz|gem|observatory LON LAT ALT' header line)",
     "paint": "a PAINT heliostat folder",
     "sun": "sun observations of a turntable: 'alpha beta sun_az sun_el [weight]' in degrees per line",
     "xy": "an X-Y mount run: 'L B L0 B0' in degrees per line",
+    "offsets": "a table of pointing offsets (CSV or whitespace): az el daz del [errors], with a header naming "
+    "the columns or columns=",
 }
 
 _GPOINT_HEADERS = ("altaz-manual", "altaz", "observatory", "gem")
@@ -69,24 +74,36 @@ def _undetected(path: str, why: str) -> FormatDetectionError:
     )
 
 
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+_OFFSET_AZIMUTHS = ("az", "azimuth", "raw_az", "cmd_az", "enc_az")
+_OFFSET_ELEVATIONS = ("el", "elevation", "alt", "altitude", "raw_el", "cmd_el", "enc_el")
+
+
+def _offsets_header(lines: list[str]) -> bool:
+    """Whether the first record is an offsets table's header: it names an azimuth, an
+    elevation and at least two offsets (``daz``, ``delta_el``, ``az_off``, ``dxel``)."""
+    records = (line.split("#", 1)[0].split("!", 1)[0].strip() for line in lines)
+    first = next((r for r in records if r), "")
+    words = [w.strip("\"'").lower().split("[")[0].split("(")[0] for w in first.replace(",", " ").split()]
+    offsets = sum(w.startswith(("d", "delta")) or "off" in w or "xel" in w for w in words)
+    return any(w in _OFFSET_AZIMUTHS for w in words) and any(w in _OFFSET_ELEVATIONS for w in words) and offsets >= 2
+
+
+def _all_numbers(record: str) -> bool:
+    tokens = record.split()
+    return bool(tokens) and all(is_number(t) for t in tokens)
 
 
 def detect_format(path: str | os.PathLike) -> str:
     """The format of the run at ``path``, one of :data:`RUN_FORMATS`.
 
     A folder is a PAINT heliostat folder. A file is a gpoint run when a ``#`` line
-    names a gpoint header (``altaz-manual``, ``altaz``; also ``observatory``, ``gem``,
-    which the gpoint reader refuses with its own message); a TPOINT file when, after
-    its caption line, a record starts with ``:`` or reads ``END``; a sun file when its
+    names a gpoint header (``altaz-manual``, ``altaz``, ``gem``, ``observatory``); a TPOINT file when, after
+    its caption line, a record starts with ``:`` or reads ``END``, or a text caption is
+    followed by a run-parameters record of numbers (a file with no option records); a sun file when its
     lines hold five numbers (the fifth is a weight) or its comments name the sun
     columns (``alpha``, ``sun_az``); an X-Y run when its comments name ``L0``/``B0`` or
-    say ``X-Y``. The content need not be valid: the format's reader reports errors.
+    say ``X-Y``; an offsets table when its first record is a header naming azimuth,
+    elevation and two offsets. The content need not be valid: the format's reader reports errors.
 
     Raises:
         FileNotFoundError: nothing at ``path``.
@@ -114,17 +131,22 @@ def detect_format(path: str | os.PathLike) -> str:
             if words and words[0] in _GPOINT_HEADERS:
                 return "gpoint"
 
+    if _offsets_header(lines):
+        return "offsets"
+
     # TPOINT: '!' comment lines, a caption, then records; an option record starts with ':'.
     records = [line.split("!", 1)[0].strip() for line in lines if not line.lstrip().startswith("!")]
     records = [r for r in records if r]
     if any(r.startswith(":") or r.upper() == "END" for r in records[1:]):
         return "tpoint"
+    if len(records) > 2 and not _all_numbers(records[0]) and _all_numbers(records[1]) and 3 <= len(records[1].split()) <= 12:
+        return "tpoint"  # a caption, a run-parameters record, data: a TPOINT run without option records
 
     # Tables of numbers: '#' comments.
     comments = " ".join(line.split("#", 1)[1] for line in lines if "#" in line)
     rows = [line.split("#", 1)[0].replace(",", " ").split() for line in lines]
     rows = [r for r in rows if r]
-    if rows and all(all(_is_number(t) for t in r) for r in rows):
+    if rows and all(all(is_number(t) for t in r) for r in rows):
         widths = {len(r) for r in rows}
         if widths <= {4, 5}:
             if 5 in widths:
@@ -152,7 +174,7 @@ def load_run(path: str | os.PathLike, format: str | None = None, **options: Any)
         format: one of :data:`RUN_FORMATS`, or None to tell it from the file
             (:func:`detect_format`).
         **options: the format's reader options (:data:`RUN_OPTIONS`): tpoint
-            ``azimuth`` (:func:`pointax.io.read_tpoint`); paint ``focal_spot``,
+            ``azimuth``, ``mount``, ``refraction`` (:func:`pointax.io.read_tpoint`); paint ``focal_spot``,
             ``tower``, ``mirror_offset`` (:func:`pointax.io.read_paint`).
 
     Returns:
@@ -191,6 +213,10 @@ def load_run(path: str | os.PathLike, format: str | None = None, **options: Any)
         from .sun import read_sun_observations
 
         return read_sun_observations(name)
+    if fmt == "offsets":
+        from .offsets import read_offsets
+
+        return read_offsets(name, **options)
     from .xy import XYRun, read_xy_run
 
     return XYRun(path=name, observations=read_xy_run(name))

@@ -9,9 +9,17 @@ Input file layout (as TPOINT reads it)::
                                                date, temperature C, pressure mB,
                                                height m, humidity, wavelength, lapse
     192.386 77.347 -167.278 77.348             observed az, el, raw encoder az, el
-    ...                                        (degrees; an optional 5th number, e.g.
-    END                                         a rotator angle, is kept as `extra`;
-                                                END is optional)
+    ...                                        (degrees, or d m s; an optional 5th
+    END                                         number, e.g. a rotator angle, is kept
+                                                as `extra`; END is optional)
+
+An equatorial run (``: EQUAT``, ``: GERMAN`` or ``: FORK``) has records of star RA, Dec,
+telescope RA, Dec and sidereal time::
+
+    21 43 18.4460 +72 29 08.368 09 28 59.9527 +109 20 06.469  16 23.130
+
+(``h m s  d m s  h m s  d m s  h m.m``; or decimal hours and degrees; hour angles
+instead of RA without the sidereal time: see :func:`read_tpoint`).
 
 Model file layout::
 
@@ -22,6 +30,9 @@ Model file layout::
     & HSCASE3   -6.7565     1.60735            '&': applied in parallel with the previous
      =NPAE      +0.0000                        '=': fixed (no sigma)
     END
+
+or the same records on one line, separated by ``|`` (``caption | T 80 ... | IA
++1209.2612 1.28477 | ... | END``).
 
 pointax sums all sky offsets of a model (TPOINT's "parallel"); TPOINT's default of
 chaining terms one after another differs only in second order of the coefficients.
@@ -47,10 +58,22 @@ from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
 from .errors import FileFormatError
-from .sanity import check_azimuth, check_not_radians, check_observed_elevation, warn_after_end, warn_duplicates
+from .errors import warn_input
+from .sanity import (
+    HORIZON_DEG,
+    check_azimuth,
+    check_not_radians,
+    check_observed_elevation,
+    warn_after_end,
+    warn_duplicates,
+)
+from .sexagesimal import Group, group_value
+from .text import read_text
 
 __all__ = [
     "TpointFormatError",
+    "MountNotGivenError",
+    "MOUNTS",
     "RunParameters",
     "TpointRun",
     "TpointModelFile",
@@ -61,6 +84,7 @@ __all__ = [
     "parse_model",
     "write_model",
     "format_model",
+    "refraction_arcsec",
 ]
 
 RUN_PARAMETER_FIELDS = (
@@ -77,12 +101,51 @@ RUN_PARAMETER_FIELDS = (
     "wavelength (micron)",
     "lapse rate (K/m)",
 )
-ALTAZ_FIELDS = ("observed azimuth", "observed elevation", "raw azimuth", "raw elevation", "extra (5th column)")
-MOUNT_OPTIONS = {"ALTAZ", "EQUAT", "GERMAN", "ALTALT", "XY", "FORK"}
+MOUNTS = ("altaz", "equatorial")
+"""The mounts of the TPOINT runs pointax reads."""
+ALTAZ_OPTION = "ALTAZ"
+EQUATORIAL_OPTIONS = frozenset({"EQUAT", "GERMAN", "FORK"})
+UNSUPPORTED_MOUNT_OPTIONS = frozenset({"ALTALT", "XY"})
+MOUNT_OPTIONS = frozenset({ALTAZ_OPTION}) | EQUATORIAL_OPTIONS | UNSUPPORTED_MOUNT_OPTIONS
+"""The option records that say a run's mount."""
+MODEL_LAYOUTS = ("lines", "one-line")
+"""The layouts of model files pointax reads and writes."""
+ROTATOR_OPTIONS = frozenset({"ROTTEL", "ROTNL", "ROTNR", "ROTCL", "ROTCR"})
+"""Option records that say each observation record ends with a rotator angle."""
+
+
+def _altaz_layout(width: int) -> tuple[Group, ...]:
+    return tuple(Group(width, name) for name in ("observed azimuth", "observed elevation", "raw azimuth", "raw elevation"))
+
+
+def _equatorial_layout(width: int, time: bool) -> tuple[Group, ...]:
+    angle = "RA" if time else "HA"
+    groups = (
+        Group(width, f"star {angle}", "h"),
+        Group(width, "star Dec"),
+        Group(width, f"telescope {angle}", "h"),
+        Group(width, "telescope Dec"),
+    )
+    return groups + ((Group(min(width, 2), "sidereal time", "h"),) if time else ())
+
+
+ALTAZ_LAYOUTS = {4: _altaz_layout(1), 12: _altaz_layout(3)}
+"""Number of fields -> the groups of an alt-az observation record (degrees)."""
+EQUATORIAL_LAYOUTS = {
+    14: _equatorial_layout(3, True),
+    5: _equatorial_layout(1, True),
+    12: _equatorial_layout(3, False),
+    4: _equatorial_layout(1, False),
+}
+"""Number of fields -> the groups of an equatorial observation record."""
 
 
 class TpointFormatError(FileFormatError):
     """A TPOINT file could not be read; the message names file, line and field."""
+
+
+class MountNotGivenError(TpointFormatError):
+    """A TPOINT run names no mount and none was given (``mount=``, ``--mount``)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,15 +180,52 @@ class TpointRun:
     options: tuple[str, ...]
     parameters: RunParameters
     observed: np.ndarray
-    """``(n, 2)`` observed (catalogue) azimuth and elevation, radians, file convention."""
+    """``(n, 2)`` observed (catalogue) position, radians: alt-az, azimuth and elevation
+    in the file's convention; equatorial, the star's hour angle (positive West, in
+    -pi..pi) and declination, before refraction."""
     encoder: np.ndarray
-    """``(n, 2)`` raw encoder azimuth and elevation, radians, file convention."""
+    """``(n, 2)`` raw encoder readings, radians: alt-az, azimuth and elevation in the
+    file's convention; equatorial, the telescope's hour angle and declination as written
+    (beyond +-pi/2 on the other side of the pier)."""
     extra: np.ndarray
     """``(n, k)`` further numbers per row (k = 0 or 1, e.g. a rotator angle), as written."""
     lines: np.ndarray
     """``(n,)`` line number of each observation in the file."""
     azimuth: str
+    """The encoder convention: the alt-az azimuth convention ('N-E', 'S-E', 'S-W') or
+    'ha-dec' for an equatorial run (``observations.convention``)."""
     observations: Observations
+    mount: str = "altaz"
+    """'altaz' or 'equatorial'."""
+    refraction: tuple[float, float] = (0.0, 0.0)
+    """TPOINT's refraction constants ``(A, B)``, radians, from the run's weather (or as
+    given to the reader); written to model files."""
+    refraction_applied: bool = False
+    """Whether ``refraction`` raised the star places to the observed ones (equatorial
+    runs; alt-az files give observed places)."""
+    sidereal_time: np.ndarray | None = None
+    """``(n,)`` local sidereal time of each equatorial record, radians (None when the
+    records give hour angles)."""
+    flipped: np.ndarray | None = None
+    """``(n,)`` True for equatorial records on the other side of the pier (telescope
+    declination beyond +-90 deg); None for alt-az runs."""
+    rotator: np.ndarray | None = None
+    """``(n,)`` rotator angle, radians, when a rotator option says the records carry
+    one (not used by any fit)."""
+
+    @property
+    def latitude(self) -> float:
+        """The site's latitude, radians (from the run-parameters record)."""
+        return self.parameters.latitude
+
+    def model(self, terms=(), fixed=(), residual_form: str = "sky"):
+        """The model of this run's mount with ``terms``: :func:`pointax.AltAz` in the
+        run's azimuth convention, or :func:`pointax.Equatorial` at its latitude."""
+        from ..mount_models import AltAz, Equatorial
+
+        if self.mount == "equatorial":
+            return Equatorial(terms, latitude=self.latitude, fixed=fixed, residual_form=residual_form)
+        return AltAz(terms, azimuth=self.azimuth, fixed=fixed, residual_form=residual_form)
 
     def __len__(self) -> int:
         return self.encoder.shape[0]
@@ -162,13 +262,6 @@ def _records(text: str, path: str = "<string>"):
             yield lineno, "END"
             return
         yield lineno, line
-
-
-def _read_text(path: str) -> str:
-    try:
-        return Path(path).read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as err:
-        raise TpointFormatError(path, None, f"not a text file ({err})") from None
 
 
 def _numbers(
@@ -219,15 +312,112 @@ def _run_parameters(path: str, lineno: int, tokens: list[str]) -> RunParameters:
     return RunParameters(latitude, date, *optional)
 
 
-def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> TpointRun:
+def _mount_of(path: str, lineno: int, options: list[str], mount: str | None) -> str:
+    """'altaz' or 'equatorial': the file's mount option, else ``mount``; refuse both
+    missing, a contradiction, and mounts pointax does not read."""
+    said = MOUNT_OPTIONS.intersection(options)
+    unsupported = said & UNSUPPORTED_MOUNT_OPTIONS
+    if unsupported:
+        raise TpointFormatError(
+            path, lineno, f"mount option {', '.join(sorted(unsupported))}: pointax reads TPOINT alt-az (': ALTAZ') "
+            "and equatorial (': EQUAT', ': GERMAN', ': FORK') runs"
+        )
+    in_file = "altaz" if ALTAZ_OPTION in said else ("equatorial" if said else None)
+    if mount is not None and mount not in MOUNTS:
+        raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
+    if in_file and len({"altaz" if o == ALTAZ_OPTION else "equatorial" for o in said}) > 1:
+        raise TpointFormatError(path, lineno, f"contradictory mount options: {', '.join(sorted(said))}")
+    if in_file and mount and in_file != mount:
+        raise TpointFormatError(
+            path, lineno, f"the file says {in_file} (option{'s' if len(said) > 1 else ''} {', '.join(sorted(said))}) "
+            f"but mount={mount!r} (--mount {mount}) was asked for"
+        )
+    if in_file is None and mount is None:
+        raise MountNotGivenError(
+            path,
+            lineno,
+            "no mount option record (': ALTAZ' or ': EQUAT') before the run parameters; TPOINT's default is "
+            "equatorial, but some observatories' TPOINT is set to alt-az: say which with mount='altaz' or "
+            "mount='equatorial' (command line: --mount altaz|equatorial)",
+        )
+    return in_file or mount
+
+
+def _layout(path: str, lineno: int, mount: str, n: int) -> tuple[tuple[Group, ...], bool]:
+    """The record layout for ``n`` fields and whether the last field is an extra column."""
+    layouts = ALTAZ_LAYOUTS if mount == "altaz" else EQUATORIAL_LAYOUTS
+    if n in layouts:
+        return layouts[n], False
+    if n - 1 in layouts:
+        return layouts[n - 1], True
+    described = "; ".join(f"{k} fields: {_describe(v)}" for k, v in sorted(layouts.items()))
+    raise TpointFormatError(
+        path, lineno, f"observation record has {n} fields; an {'alt-az' if mount == 'altaz' else 'equatorial'} "
+        f"record has {described} (each optionally followed by one more number, e.g. a rotator angle)"
+    )
+
+
+def _describe(layout: tuple[Group, ...]) -> str:
+    kinds = {1: "decimal", 2: "d m.m", 3: "sexagesimal"}
+    return ", ".join(f"{g.name} ({kinds[g.width] if g.unit != 'h' else kinds[g.width].replace('d m', 'h m')}"
+                     f"{' hours' if g.unit == 'h' and g.width == 1 else ''})" for g in layout)
+
+
+def _record_values(path: str, lineno: int, tokens: list[str], layout: tuple[Group, ...]) -> list[float]:
+    values, first = [], 1
+    for group in layout:
+        values.append(group_value(TpointFormatError, path, lineno, tokens[first - 1 : first - 1 + group.width], first, group, "observation record"))
+        first += group.width
+    return values
+
+
+def _field_of(layout: tuple[Group, ...], index: int) -> str:
+    first = 1 + sum(g.width for g in layout[:index])
+    return f"observation record: field {first} ({layout[index].name})"
+
+
+def _check_altaz(path: str, lineno: int, v: list[float], layout) -> None:
+    if not -90.0 <= v[1] <= 90.0:
+        raise TpointFormatError(path, lineno, f"{_field_of(layout, 1)} {v[1]:g} is outside -90..90 deg")
+    check_azimuth(TpointFormatError, path, lineno, v[0], _field_of(layout, 0).replace("observation record: ", ""))
+    check_azimuth(TpointFormatError, path, lineno, v[2], _field_of(layout, 2).replace("observation record: ", ""))
+    check_observed_elevation(TpointFormatError, path, lineno, v[1], _field_of(layout, 1).replace("observation record: ", ""))
+    if not -90.0 <= v[3] <= 180.0:
+        raise TpointFormatError(path, lineno, f"{_field_of(layout, 3)} {v[3]:g} is outside -90..180 deg")
+
+
+def _check_equatorial(path: str, lineno: int, v: list[float], layout) -> None:
+    for k in (0, 2):
+        if not -24.0 <= v[k] <= 24.0:
+            raise TpointFormatError(path, lineno, f"{_field_of(layout, k)} {v[k]:g} h is outside -24..24 h")
+    if not -90.0 <= v[1] <= 90.0:
+        raise TpointFormatError(path, lineno, f"{_field_of(layout, 1)} {v[1]:g} deg is outside -90..90")
+    if not -180.0 <= v[3] <= 180.0:
+        raise TpointFormatError(
+            path, lineno, f"{_field_of(layout, 3)} {v[3]:g} deg is outside -180..180 (beyond +-90: the other side of the pier)"
+        )
+    if len(layout) > 4 and not 0.0 <= v[4] <= 24.0:
+        raise TpointFormatError(path, lineno, f"{_field_of(layout, 4)} {v[4]:g} h is outside 0..24 h")
+
+
+def parse_tpoint(
+    text: str,
+    path: str = "<string>",
+    azimuth: str = "N-E",
+    mount: str | None = None,
+    refraction: tuple[float, float] | None = None,
+) -> TpointRun:
     """Parse the text of a TPOINT input file (see :func:`read_tpoint`)."""
     if azimuth not in AZIMUTH_CONVENTIONS:
         raise ValueError(f"unknown azimuth convention {azimuth!r}; expected one of {sorted(AZIMUTH_CONVENTIONS)}")
+    if mount is not None and mount not in MOUNTS:
+        raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
     caption = None
     options: list[str] = []
     params = None
+    kind = None
     rows, extra, lines = [], [], []
-    n_columns = None
+    layout = n_columns = has_extra = None
     for lineno, line in _records(text, path):
         if caption is None:
             caption = line
@@ -241,37 +431,23 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
             continue
         tokens = line.split()
         if params is None:
-            mounts = MOUNT_OPTIONS.intersection(options)
-            if "ALTAZ" not in options:
-                found = ", ".join(sorted(mounts)) or "none (TPOINT's default is equatorial)"
-                raise TpointFormatError(
-                    path, lineno, f"pointax reads alt-az runs (option ': ALTAZ'); this file's mount option: {found}"
-                )
+            kind = _mount_of(path, lineno, options, mount)
             params = _run_parameters(path, lineno, tokens)
             continue
-        if len(tokens) not in (4, 5):
-            raise TpointFormatError(
-                path,
-                lineno,
-                f"observation record has {len(tokens)} fields; an alt-az record is observed az, el, "
-                "raw az, el in degrees, optionally a 5th number",
-            )
         if n_columns is None:
             n_columns = len(tokens)
+            layout, has_extra = _layout(path, lineno, kind, n_columns)
         elif len(tokens) != n_columns:
             raise TpointFormatError(
                 path, lineno, f"observation record has {len(tokens)} fields, earlier records have {n_columns}"
             )
-        v = _numbers(path, lineno, tokens, ALTAZ_FIELDS, "observation record")
-        if not -90.0 <= v[1] <= 90.0:
-            raise TpointFormatError(path, lineno, f"observation record: field 2 (observed elevation) {tokens[1]} is outside -90..90 deg")
-        check_azimuth(TpointFormatError, path, lineno, v[0], "observation record: field 1 (observed azimuth)")
-        check_azimuth(TpointFormatError, path, lineno, v[2], "observation record: field 3 (raw azimuth)")
-        check_observed_elevation(TpointFormatError, path, lineno, v[1], "observation record: field 2 (observed elevation)")
-        if not -90.0 <= v[3] <= 180.0:
-            raise TpointFormatError(path, lineno, f"observation record: field 4 (raw elevation) {tokens[3]} is outside -90..180 deg")
-        rows.append(v[:4])
-        extra.append(v[4:])
+        v = _record_values(path, lineno, tokens, layout)
+        (_check_altaz if kind == "altaz" else _check_equatorial)(path, lineno, v, layout)
+        if has_extra:
+            extra.append(_numbers(path, lineno, tokens[-1:], ("extra",), "observation record", first=n_columns))
+        else:
+            extra.append([])
+        rows.append(v)
         lines.append(lineno)
     if caption is None:
         raise TpointFormatError(path, None, "empty file: no caption line")
@@ -279,54 +455,181 @@ def parse_tpoint(text: str, path: str = "<string>", azimuth: str = "N-E") -> Tpo
         raise TpointFormatError(path, None, "no run-parameters record (latitude, date, ...) after the caption and options")
     if not rows:
         raise TpointFormatError(path, None, "no observation records")
-    degrees = np.asarray(rows, np.float64)
-    check_not_radians(
-        TpointFormatError,
-        path,
-        lines,
-        {
-            "field 1 (observed azimuth)": (degrees[:, 0], 2 * math.pi),
-            "field 2 (observed elevation)": (degrees[:, 1], math.pi / 2),
-            "field 3 (raw azimuth)": (degrees[:, 2], 2 * math.pi),
-            "field 4 (raw elevation)": (degrees[:, 3], math.pi),
-        },
-    )
-    warn_duplicates(path, np.column_stack([degrees, np.asarray(extra, np.float64).reshape(len(rows), -1)]), lines)
-    data = degrees * DEG
-    observed, encoder = data[:, :2], data[:, 2:]
-    frame = np.asarray(AZIMUTH_CONVENTIONS[azimuth])
-    az, el = observed[:, 0], observed[:, 1]
-    in_mount_frame = azel_to_enu_numpy(az, el)
-    target = in_mount_frame @ frame.T
-    return TpointRun(
+    values = np.asarray(rows, np.float64)
+    extras = np.asarray(extra, np.float64).reshape(len(rows), -1)
+    if all(g.width == 1 for g in layout):
+        check_not_radians(TpointFormatError, path, lines, _radian_looking_columns(kind, layout, values))
+    warn_duplicates(path, np.column_stack([values, extras]), lines)
+    rotator = _rotator(path, lines, options, extras, n_columns)
+    constants = _refraction_constants(params) if refraction is None else tuple(float(x) for x in refraction)
+    common = dict(
         path=path,
         caption=caption,
         options=tuple(options),
         parameters=params,
+        extra=extras,
+        lines=np.asarray(lines),
+        mount=kind,
+        rotator=rotator,
+        refraction=constants,
+    )
+    if kind == "altaz":
+        data = values * DEG
+        observed, encoder = data[:, :2], data[:, 2:]
+        target = azel_to_enu_numpy(observed[:, 0], observed[:, 1]) @ np.asarray(AZIMUTH_CONVENTIONS[azimuth]).T
+        return TpointRun(
+            observed=observed,
+            encoder=encoder,
+            azimuth=azimuth,
+            observations=Observations(encoder, target, convention=azimuth),
+            refraction_applied=False,
+            **common,
+        )
+    return _equatorial_run(values, layout, params, constants, common)
+
+
+def _radian_looking_columns(kind: str, layout, values: np.ndarray) -> dict:
+    if kind == "altaz":
+        limits = (2 * math.pi, math.pi / 2, 2 * math.pi, math.pi)
+    else:  # declinations only: an RA in hours may well lie within 2 pi
+        limits = (None, math.pi / 2, None, math.pi)
+    return {
+        _field_of(layout, k).replace("observation record: ", ""): (values[:, k], limit)
+        for k, limit in enumerate(limits)
+        if limit is not None
+    }
+
+
+def _rotator(path: str, lines: list[int], options: list[str], extras: np.ndarray, n_columns: int) -> np.ndarray | None:
+    said = sorted(ROTATOR_OPTIONS.intersection(options))
+    if not said:
+        return None
+    if extras.shape[1] == 0:
+        raise TpointFormatError(
+            path, int(lines[0]), f"option {said[0]} says the records carry a rotator angle, but they have no extra field"
+        )
+    warn_input(
+        path,
+        int(lines[0]),
+        f"option {said[0]}: the rotator angle (field {n_columns}) is kept as run.rotator but pointax models no "
+        "rotator terms, so it does not enter the fit",
+        stacklevel=5,
+    )
+    return extras[:, 0] * DEG
+
+
+def _refraction_constants(params: RunParameters) -> tuple[float, float]:
+    from .refraction import refraction_constants
+
+    return refraction_constants(params.pressure_mb, params.temperature_c, params.humidity, params.wavelength_um)
+
+
+def _equatorial_run(values: np.ndarray, layout, params: RunParameters, constants, common: dict) -> "TpointRun":
+    from .refraction import refract
+
+    hours = math.pi / 12.0
+    has_time = len(layout) > 4
+    if has_time:
+        sidereal = values[:, 4] * hours
+        ha_star, ha_tel = sidereal - values[:, 0] * hours, sidereal - values[:, 2] * hours
+    else:
+        sidereal = None
+        ha_star, ha_tel = values[:, 0] * hours, values[:, 2] * hours
+    wrap = lambda h: (h + math.pi) % (2 * math.pi) - math.pi  # noqa: E731
+    dec_star, dec_tel = values[:, 1] * DEG, values[:, 3] * DEG
+    observed = np.column_stack([wrap(ha_star), dec_star])
+    encoder = np.column_stack([wrap(ha_tel), dec_tel])
+    lat = params.latitude
+    h, d = observed[:, 0], observed[:, 1]
+    enu = np.stack(
+        [
+            -np.cos(d) * np.sin(h),
+            math.cos(lat) * np.sin(d) - math.sin(lat) * np.cos(d) * np.cos(h),
+            math.sin(lat) * np.sin(d) + math.cos(lat) * np.cos(d) * np.cos(h),
+        ],
+        axis=-1,
+    )
+    path, lines = common["path"], common["lines"]
+    elevation = np.degrees(np.arcsin(np.clip(enu[:, 2], -1.0, 1.0)))
+    low = np.flatnonzero(elevation < HORIZON_DEG)
+    if low.size:
+        k = int(low[0])
+        raise TpointFormatError(
+            path, int(lines[k]), f"{_field_of(layout, 0)}: the star is at elevation {elevation[k]:.2f} deg, below the "
+            f"horizon at latitude {math.degrees(lat):.4f} deg (wrong hour angle, sidereal time or latitude?)"
+        )
+    target = refract(enu, *constants)
+    return TpointRun(
         observed=observed,
         encoder=encoder,
-        extra=np.asarray(extra, np.float64).reshape(len(rows), -1),
-        lines=np.asarray(lines),
-        azimuth=azimuth,
-        observations=Observations(encoder, target, convention=azimuth),
+        azimuth="ha-dec",
+        observations=Observations(encoder, target, convention="ha-dec"),
+        refraction_applied=bool(constants != (0.0, 0.0)),
+        sidereal_time=sidereal,
+        flipped=np.abs(dec_tel) > math.pi / 2,
+        **common,
     )
 
 
-def read_tpoint(path: str | os.PathLike, azimuth: str = "N-E") -> TpointRun:
-    """Read a TPOINT input file of an alt-az pointing run.
+def read_tpoint(
+    path: str | os.PathLike,
+    azimuth: str = "N-E",
+    mount: str | None = None,
+    refraction: tuple[float, float] | None = None,
+) -> TpointRun:
+    """Read a TPOINT input file of an alt-az or equatorial pointing run.
+
+    **Mount.** The option records say it: ``: ALTAZ`` alt-az; ``: EQUAT``, ``: GERMAN``
+    or ``: FORK`` equatorial. A file with none is refused unless ``mount`` says it
+    (TPOINT's default is equatorial, but some observatories' TPOINT is set to alt-az
+    and their files omit ``: ALTAZ``).
+
+    **Alt-az records**: observed azimuth and elevation, raw (encoder) azimuth and
+    elevation, in decimal degrees (4 fields) or ``d m s`` (12 fields). The observed
+    positions are taken as observed (refraction included), as TPOINT takes them.
+
+    **Equatorial records**: star right ascension and declination, telescope right
+    ascension and declination, then the local sidereal time: ``h m s  d m s  h m s  d m
+    s  h m.m`` (14 fields, as TPOINT and TheSkyX write them) or in decimal hours and
+    degrees (5 fields: RA, Dec, RA, Dec, sidereal time). Without the sidereal time
+    (12 sexagesimal or 4 decimal fields) the two angles are hour angles (hours,
+    positive West). The hour angle is ``H = sidereal time - RA``. The sign of an angle
+    is its first field's, so ``-00 30 00`` is -0.5 deg. The star's place is its
+    apparent place; refraction from the run-parameters record's weather (ERFA's
+    ``refco``, :mod:`pointax.io.refraction`) raises it to the observed place, unless
+    the pressure is missing or 0 or ``refraction`` gives the constants to use.
+
+    **Pier side.** A telescope declination beyond +-90 deg (TheSkyX's German-mount
+    exports) is the other side of the pier: the declination axis has turned past the
+    pole. The row's mechanical reading is kept as written, ``(H, D)``; it points at
+    the sky declination ``sign(D) 180 deg - D`` and hour angle ``H - 12 h``
+    (:class:`pointax.EquatorialMount` reads both sides), and ``run.flipped`` marks
+    it. Terms see the mechanical reading, so those of declination-index,
+    collimation and non-perpendicularity type change sign on the sky across the pier,
+    as TPOINT's do (:mod:`pointax.terms.equatorial`).
+
+    Any record may end with one more number: it is kept in ``run.extra``; with a
+    rotator option (``: ROTNR``, ``: ROTNL``, ``: ROTTEL``, ``: ROTCL``, ``: ROTCR``) it
+    is the rotator angle, kept in ``run.rotator`` (radians) with an
+    :class:`~pointax.io.InputWarning` that pointax does not model it.
 
     Args:
         path: the file.
-        azimuth: how the file counts azimuth: 'N-E' (TPOINT's standard, default),
-            'S-E' (from South through East, as in the MMT files) or 'S-W'. It decides
-            the East-North-Up directions of the observed positions; TPOINT-form fits do
-            not depend on it as long as the model uses the same convention.
+        azimuth: how an alt-az file counts azimuth: 'N-E' (TPOINT's standard,
+            default), 'S-E' (from South through East, as in the MMT files) or 'S-W'.
+            It decides the East-North-Up directions of the observed positions; TPOINT-form
+            fits do not depend on it as long as the model uses the same convention.
+        mount: 'altaz' or 'equatorial' for files without a mount option (or to check
+            the file says so).
+        refraction: the refraction constants ``(A, B)`` in radians (e.g. a model
+            file's ``refraction`` times ``pointax.ARCSEC``), instead of those computed
+            from the run's weather; they are applied to equatorial runs.
 
     Raises:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_tpoint(_read_text(path), path, azimuth)
+    return parse_tpoint(read_text(path, TpointFormatError), path, azimuth, mount, refraction)
 
 
 # --------------------------------------------------------------------------- models
@@ -368,8 +671,11 @@ class TpointModelFile:
         """Term values in radians, by name."""
         return {t.name: t.value * ARCSEC for t in self.terms}
 
-    def model(self, form: str = "linear", azimuth: str = "N-E"):
-        """The :class:`pointax.Model` (alt-az) these terms describe, with their values.
+    def model(self, form: str = "linear", azimuth: str = "N-E", mount: str = "altaz", latitude: float | None = None):
+        """The :class:`pointax.Model` these terms describe, with their values.
+
+        ``mount``: 'altaz' (``azimuth`` its convention) or 'equatorial' (``latitude``
+        in radians required: a model file does not record it; ``run.latitude``).
 
         Harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their names
         (:mod:`pointax.terms.harmonic`). ``azimuth`` must be how the run the model was
@@ -381,18 +687,50 @@ class TpointModelFile:
                 term's line and what is wrong with the name.
             ValueError: for an unknown ``form``.
         """
-        from ..mount_models import AltAz
+        from ..mount_models import AltAz, Equatorial
         from ..terms import tpoint
 
-        tpoint([], form=form)  # an unknown form raises here, not as a term's error
+        if mount not in MOUNTS:
+            raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
+        if mount == "equatorial" and latitude is None:
+            raise ValueError(
+                f"{self.path}: an equatorial model needs the site's latitude (radians; a model file does not "
+                "record it): model(mount='equatorial', latitude=run.latitude)"
+            )
+        where = {} if mount == "altaz" else {"mount": mount, "latitude": latitude}
+        tpoint([], form=form, **where)  # an unknown form raises here, not as a term's error
         terms = []
         for t in self.terms:
             try:
-                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}))
+                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}, **where))
             except ValueError as err:
                 raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
         fixed = [t.name for t in self.terms if t.fixed]
+        if mount == "equatorial":
+            return Equatorial(terms, latitude=latitude, fixed=fixed)
         return AltAz(terms, azimuth=azimuth, fixed=fixed)
+
+
+def _model_records(text: str, path: str):
+    """The records of a model file in either layout: a line per record, or every
+    record on one line separated by ``|`` (caption first, END last). A ``|`` in a
+    caption of the line layout is text."""
+    records = _records(text, path)
+    for lineno, line in records:
+        pieces = [p.strip() for p in line.split("|")]
+        if len(pieces) > 1 and pieces[-1].upper() == "END":
+            rest = [n for n, _ in records]
+            if rest:
+                raise TpointFormatError(
+                    path, rest[0], "a record after a one-line model (caption | records | END on one line)"
+                )
+            for piece in pieces:
+                if piece:
+                    yield lineno, piece
+            return
+        yield lineno, line
+        break
+    yield from records
 
 
 def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
@@ -401,11 +739,11 @@ def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
     header: dict = {}
     terms: list[ModelTerm] = []
     ended = False
-    for lineno, line in _records(text, path):
+    for lineno, line in _model_records(text, path):
         if caption is None:
             caption = line
             continue
-        if line == "END":
+        if line.upper() == "END":
             ended = True
             break
         tokens = line.split()
@@ -459,7 +797,7 @@ def read_model(path: str | os.PathLike) -> TpointModelFile:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_model(_read_text(path), path)
+    return parse_model(read_text(path, TpointFormatError), path)
 
 
 def exact_decimal(value: float, decimals: int, sign: bool = False) -> str:
@@ -498,8 +836,11 @@ def format_model(
     n_obs: int | None = None,
     sky_rms: float | None = None,
     refraction: tuple[float, float] = (0.0, 0.0),
+    layout: str = "lines",
 ) -> str:
-    """Text of a TPOINT model file. Values and ``sky_rms`` in arcseconds.
+    """Text of a TPOINT model file. Values, ``sky_rms`` and ``refraction`` (TPOINT's
+    constants A and B) in arcseconds. ``layout``: 'lines' (a record per line, TPOINT's
+    classic layout) or 'one-line' (every record on one line, separated by `` | ``).
 
     Numbers are written in TPOINT's fixed-point layout with as many decimals as it
     takes to read back the same float64 (at least TPOINT's 4 for values, 5 for sigmas),
@@ -510,7 +851,11 @@ def format_model(
         ValueError: for a NaN or infinite value, Sky RMS or refraction constant, naming
             the term or field (the reader would refuse the file).
     """
+    if layout not in MODEL_LAYOUTS:
+        raise ValueError(f"unknown model-file layout {layout!r}; expected one of {', '.join(MODEL_LAYOUTS)}")
     caption = caption.strip()
+    if layout == "one-line" and "|" in caption:
+        raise ValueError(f"a one-line model file's caption cannot hold '|': {caption!r}")
     if not caption or caption.startswith("!"):
         raise ValueError(f"a model-file caption must be non-empty text not starting with '!', got {caption!r}")
     lines = [caption]
@@ -528,11 +873,31 @@ def format_model(
         flags = ("&" if t.parallel else " ") + ("=" if t.fixed else " ")
         lines.append(f"{flags}{t.name:<8s} {exact_decimal(t.value, 4, sign=True):>12s}{sigma}")
     lines.append("END")
+    if layout == "one-line":
+        return " | ".join(" ".join(line.split()) if k else line for k, line in enumerate(lines)) + "\n"
     return "\n".join(lines) + "\n"
 
 
-def write_model(path: str | os.PathLike, source, caption: str | None = None, refraction: tuple[float, float] = (0.0, 0.0)) -> None:
+def refraction_arcsec(run) -> tuple[float, float]:
+    """A run's refraction constants ``(A, B)`` in arcseconds, as a model file holds
+    them: those of a :class:`TpointRun` (from its weather), ``(0, 0)`` for runs of
+    other formats or None."""
+    a, b = getattr(run, "refraction", (0.0, 0.0)) if run is not None else (0.0, 0.0)
+    return float(a) / ARCSEC, float(b) / ARCSEC
+
+
+def write_model(
+    path: str | os.PathLike,
+    source,
+    caption: str | None = None,
+    refraction: tuple[float, float] = (0.0, 0.0),
+    layout: str = "lines",
+) -> None:
     """Write a TPOINT model file from a :class:`pointax.FitResult` or a :class:`pointax.Model`.
+
+    ``refraction``: TPOINT's refraction constants A and B in arcseconds (a run's
+    ``refraction`` divided by ``pointax.ARCSEC``), written in the fit-summary record.
+    ``layout``: 'lines' or 'one-line' (:func:`format_model`).
 
     Only one-parameter terms in arcseconds with upper-case (TPOINT) names can be written
     (TPOINT's format holds one number per term, and reads names case-insensitively);
@@ -569,4 +934,4 @@ def write_model(path: str | os.PathLike, source, caption: str | None = None, ref
                 fixed=p.name in model.fixed,
             )
         )
-    Path(path).write_text(format_model(terms, caption, n_obs, sky_rms, refraction))
+    Path(path).write_text(format_model(terms, caption, n_obs, sky_rms, refraction, layout))

@@ -17,13 +17,19 @@ from ..units import ARCSEC
 from .parser import COMMANDS, NOTED_SETTINGS, Line
 from .session import Session, read_run
 
-__all__ = ["COMMAND_FUNCTIONS", "DEFAULT_FAUTO_CANDIDATES", "fit_table"]
+__all__ = ["COMMAND_FUNCTIONS", "DEFAULT_FAUTO_CANDIDATES", "EQUATORIAL_FAUTO_CANDIDATES", "fit_table"]
 
 DEFAULT_FAUTO_CANDIDATES = tuple(
     f"H{what}{fn}{arg}{k}" for what in "AES" for fn in "SC" for arg in "AE" for k in (1, 2, 3)
 )
-"""FAUTO's candidates when none are named: TPOINT harmonics of A, E and S (cross-
-elevation) in sin and cos of azimuth and elevation, multipliers 1 to 3 (36 terms)."""
+"""FAUTO's candidates when none are named, alt-az runs: TPOINT harmonics of A, E and S
+(cross-elevation) in sin and cos of azimuth and elevation, multipliers 1 to 3 (36 terms)."""
+
+EQUATORIAL_FAUTO_CANDIDATES = tuple(
+    f"H{what}{fn}{arg}{k}" for what in "HDX" for fn in "SC" for arg in "HD" for k in (1, 2, 3)
+)
+"""FAUTO's candidates when none are named, equatorial runs: harmonics of H, D and X
+(cross-declination) in sin and cos of hour angle and declination, multipliers 1 to 3."""
 
 
 def _names(args: list[str], what: str) -> list[str]:
@@ -35,10 +41,10 @@ def _names(args: list[str], what: str) -> list[str]:
     return out
 
 
-def _check_terms(names: list[str], form: str) -> None:
+def _check_terms(s: Session, names: list[str]) -> None:
     from ..terms import tpoint
 
-    tpoint(names, form=form)  # unknown names raise, listing the known ones
+    tpoint(names, form=s.form, **s.term_options())  # unknown names raise, listing the known ones
 
 
 def cmd_indat(s: Session, args: list[str], line: Line) -> None:
@@ -62,7 +68,7 @@ def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
     path = line.path(args[0])
     mod = read_model(path)
     names = [t.name.upper() for t in mod.terms]
-    _check_terms(names, s.form)
+    _check_terms(s, names)
     s.terms = names
     s.values = {n: v for n, v in zip(names, (t.value * ARCSEC for t in mod.terms))}
     s.fixed = {t.name.upper() for t in mod.terms if t.fixed}
@@ -74,13 +80,13 @@ def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
 def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
     """OUTMOD FILE: write the model as a TPOINT model file (with N, Sky RMS and sigmas
     of the last FIT when nothing changed since; the refraction constants of the model
-    file INMOD read, else 0: pointax fits none)."""
-    from ..io.tpoint import write_model
+    file INMOD read, else those of the run's weather)."""
+    from ..io.tpoint import refraction_arcsec, write_model
 
     if len(args) != 1:
         raise ValueError("OUTMOD needs one file name")
     path = line.path(args[0])
-    refraction = s.refraction or (0.0, 0.0)  # pointax fits no refraction: INMOD's constants, else 0
+    refraction = s.refraction or refraction_arcsec(s.run)  # INMOD's constants, else the run's weather
     if s.result is not None and not s.stale:
         write_model(path, s.result, caption=s.current_caption(), refraction=refraction)
         s.say(f"OUTMOD: {path} (N {int(s.result.n_obs)}, Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f})")
@@ -94,7 +100,7 @@ def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
 def cmd_use(s: Session, args: list[str], line: Line) -> None:
     """USE NAME ...: add terms to the model (each starts at 0)."""
     names = _names(args, "USE")
-    _check_terms(names, s.form)
+    _check_terms(s, names)
     added = [n for n in names if n not in s.terms]
     for n in added:
         s.terms.append(n)
@@ -247,14 +253,16 @@ def cmd_unmask(s: Session, args: list[str], line: Line) -> None:
 def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
     """FAUTO [NAME ...]: automatic model building from the current model
     (:func:`pointax.build_model`) over the named candidate terms (default
-    :data:`DEFAULT_FAUTO_CANDIDATES`), on the unmasked observations; the model becomes
+    :data:`DEFAULT_FAUTO_CANDIDATES`, :data:`EQUATORIAL_FAUTO_CANDIDATES` for an equatorial
+    run), on the unmasked observations; the model becomes
     the one it built (FIT then refines it)."""
     from ..analysis.model_building import build_model
     from ..terms import tpoint
 
     run = s.require_run()
-    names = _names(args, "FAUTO") if args else [n for n in DEFAULT_FAUTO_CANDIDATES if n not in s.terms]
-    candidates = tpoint(names, form=s.form)
+    default = EQUATORIAL_FAUTO_CANDIDATES if run.mount == "equatorial" else DEFAULT_FAUTO_CANDIDATES
+    names = _names(args, "FAUTO") if args else [n for n in default if n not in s.terms]
+    candidates = tpoint(names, form=s.form, **s.term_options())
     keep = s.observations().weight > 0
     build = build_model(candidates, run.observations[np.flatnonzero(keep)], start=s.model())
     s.say(build.report())

@@ -20,55 +20,29 @@ import numpy as np
 __all__ = ["Session", "MOUNTS", "read_run"]
 
 MOUNTS = ("altaz", "equatorial")
-"""Mounts ``pointax tpoint --mount`` names for runs whose files do not say."""
+"""Mounts ``pointax tpoint --mount`` names for runs whose files do not say (those of
+:data:`pointax.io.tpoint.MOUNTS`)."""
 
 
 def read_run(path: str | Path, mount: str = "altaz", azimuth: str = "N-E"):
-    """Read a TPOINT input file as a run of ``mount``.
-
-    A file whose option records name no mount is equatorial by TPOINT's default; with
-    ``mount='altaz'`` it is read as alt-az (some observatories' TPOINT is set up so,
-    and their files omit ``: ALTAZ``). Line numbers stay those of the file.
+    """Read a TPOINT input file; ``mount`` ('altaz' or 'equatorial') is the mount of a
+    file whose option records name none (TPOINT's default is equatorial; some
+    observatories' TPOINT is set to alt-az, and their files omit ``: ALTAZ``). A file
+    that names its mount is read as it says.
 
     Raises:
-        ValueError: ``mount='equatorial'`` (not supported yet: issue 19) or an unknown
-            mount.
+        ValueError: an unknown mount.
         pointax.io.TpointFormatError: a malformed file (naming file, line, field).
         OSError: the file cannot be read.
     """
-    from ..io.tpoint import MOUNT_OPTIONS, TpointFormatError, parse_tpoint, read_tpoint
+    from ..io.tpoint import MountNotGivenError, read_tpoint
 
     if mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
-    if mount == "equatorial":
-        raise ValueError(
-            f"{path}: equatorial runs are not supported yet (pointax tpoint fits alt-az runs; "
-            "equatorial mounts are issue 19)"
-        )
     try:
         return read_tpoint(path, azimuth=azimuth)
-    except TpointFormatError as err:
-        text = Path(path).read_text(encoding="utf-8-sig")
-        lines = text.splitlines()
-        caption = _caption_index(lines)
-        options = {w.upper() for line in lines if line.lstrip().startswith(":") for w in line.lstrip()[1:].split()}
-        if caption is None or MOUNT_OPTIONS & options:
-            raise err from None
-        # No mount option: insert ': ALTAZ' after the caption, then restore line numbers.
-        patched = "\n".join(lines[: caption + 1] + [": ALTAZ"] + lines[caption + 1 :])
-        try:
-            run = parse_tpoint(patched, str(path), azimuth)
-        except TpointFormatError:
-            raise err from None
-        fixed = np.where(run.lines > caption + 1, run.lines - 1, run.lines)
-        return dataclasses.replace(run, lines=fixed, options=run.options)
-
-
-def _caption_index(lines: list[str]) -> int | None:
-    for k, line in enumerate(lines):
-        if line.strip() and not line.lstrip().startswith("!"):
-            return k
-    return None
+    except MountNotGivenError:
+        return read_tpoint(path, azimuth=azimuth, mount=mount)
 
 
 @dataclasses.dataclass
@@ -77,7 +51,8 @@ class Session:
 
     Attributes:
         out: where reports go (standard output by default).
-        mount: 'altaz' (runs without a mount record are read as alt-az).
+        mount: the mount of runs whose files name none, 'altaz' (default) or
+            'equatorial'.
         azimuth: how the run files count azimuth ('N-E', 'S-E', 'S-W').
         form: TPOINT term form, 'linear' (TPOINT's definitions) or 'rigorous'.
         residual_form: 'sky' (the model applied rigorously, as TPOINT's FIT) or
@@ -124,14 +99,21 @@ class Session:
         return self.run
 
     def model(self):
-        """The :class:`pointax.AltAz` model of the current terms, values and fixed
-        names (terms not yet fitted at 0)."""
-        from ..mount_models import AltAz
+        """The model (:meth:`pointax.io.TpointRun.model`: alt-az or equatorial) of the
+        current terms, values and fixed names (terms not yet fitted at 0)."""
         from ..terms import tpoint
 
         run = self.require_run()
-        terms = tpoint(self.terms, form=self.form, values={n: self.values.get(n, 0.0) for n in self.terms})
-        return AltAz(terms, azimuth=run.azimuth, fixed=sorted(self.fixed), residual_form=self.residual_form)
+        values = {n: self.values.get(n, 0.0) for n in self.terms}
+        terms = tpoint(self.terms, form=self.form, values=values, **self.term_options())
+        return run.model(terms, fixed=sorted(self.fixed), residual_form=self.residual_form)
+
+    def term_options(self) -> dict[str, Any]:
+        """How term names resolve for the run at hand: ``{}`` for alt-az (and before
+        INDAT), the mount and latitude for an equatorial run (:func:`pointax.terms.tpoint`)."""
+        if self.run is not None and getattr(self.run, "mount", "altaz") == "equatorial":
+            return {"mount": "equatorial", "latitude": self.run.latitude}
+        return {}
 
     def weights(self) -> np.ndarray:
         """``(n,)`` the run's weights with masked observations at 0."""

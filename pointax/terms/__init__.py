@@ -2,9 +2,12 @@
 
 * :mod:`pointax.terms.tpoint`: TPOINT's alt-az terms in TPOINT's linear form.
 * :mod:`pointax.terms.rigorous`: the same terms as exact rotations.
+* :mod:`pointax.terms.equatorial`: TPOINT's equatorial terms (IH ID CH NP MA ME TF FO
+  DAF HCES HCEC DCES DCEC), linear and rigorous; ``tpoint(..., mount="equatorial")``.
 * :mod:`pointax.terms.harmonic`: TPOINT's harmonic terms, generated from their names
   (``HACA2``, ``HESE5``, ``HESACE``, ``HSCA5CE8``), in both forms.
-* :mod:`pointax.terms.gpoint`: RTS2 gpoint's alt-az terms (ia ie tn te npae npoa tf)
+* :mod:`pointax.terms.gpoint`: RTS2 gpoint's alt-az terms (ia ie tn te npae npoa tf),
+  its German-equatorial terms (ih id ch np ma me tf fo daf)
   and its "extra" terms (``az:sincos:az;el:2;2``).
 * :mod:`pointax.terms.sun_vector`: the sun-vector turntable model's five parameters.
 * :mod:`pointax.terms.xy`: the level-mount (X-Y) paper's families: spherical-harmonic,
@@ -31,6 +34,23 @@ _NAMES = (
     "rigorous",
     "FORMS",
     "BASIC_ALTAZ",
+    "BASIC_EQUATORIAL",
+    "MOUNTS",
+    "EQUATORIAL_LINEAR_TERMS",
+    "EQUATORIAL_RIGOROUS_TERMS",
+    "EQUATORIAL_FORMS",
+    "IH",
+    "ID",
+    "CH",
+    "NP",
+    "MA",
+    "ME",
+    "FO",
+    "DAF",
+    "HCES",
+    "HCEC",
+    "DCES",
+    "DCEC",
     "IA",
     "IE",
     "CA",
@@ -62,18 +82,22 @@ _NAMES = (
     "GpointTerm",
     "GpointExtra",
     "GPOINT_ALTAZ_TERMS",
+    "GPOINT_GEM_TERMS",
+    "GpointGemTerm",
+    "gpoint_model_terms",
     "gpoint_extra",
     "gpoint_terms",
     "gpoint_names",
     "gpoint_library",
 )
 
-_SUBMODULES = ("base", "gpoint", "harmonic", "library")
+_SUBMODULES = ("base", "equatorial", "gpoint", "harmonic", "library")
 
 # Every public name loads from :mod:`.library`, which imports the term modules: importing
 # :mod:`pointax.terms.base` (the term interface, as the core does) loads no particular term.
 # ``heliostat`` and ``tpoint`` are the functions (their modules: ``heliostat_terms``,
-# ``pointax.terms.tpoint``), also once those modules are imported by name.
+# ``pointax.terms.tpoint``), also once those modules are imported by name. The
+# equatorial TF (its name is the alt-az TF's) is ``pointax.terms.equatorial.TF``.
 __getattr__, __dir__ = lazy_namespace(__name__, {name: "library" for name in _NAMES}, _SUBMODULES, shadowed=("heliostat", "tpoint"))
 
 __all__ = list(_NAMES)

@@ -44,6 +44,21 @@ Hence TPOINT's identities ACEC = HACA1, ACES = HASA1, ECEC = HECE1, ECES = HESE1
 the centring terms of :mod:`pointax.terms.tpoint` (a test checks all four, in both
 forms).
 
+**Equatorial harmonic terms** (``mount="equatorial"``, for
+:class:`pointax.EquatorialMount`): the same grammar with ``R`` one of ``H`` hour angle,
+``D`` declination, ``X`` east-west (cross-declination, ``dh cos dec``) and the
+arguments ``H`` (hour angle, positive West, as the mount reads it: no ``180 deg -``
+turn) and ``D`` (declination): ``HHSH``, ``HHCH2``, ``HDSD``, ``HDCD``, ``HXSH2CD``.
+TPOINT users' models hold such names (e.g. ``HHSH HHCH HDSH HDCH`` in the HATS
+model, github.com/guigue/CRAAM-Instruments/wiki/HATS-Pointing-Model). The sign follows
+IH, ID and CH of :mod:`pointax.terms.equatorial` (observed minus raw ``dh = +coef f``,
+``ddec = +coef f``, ``dh cos dec = +coef f``): **by analogy** with the alt-az rule
+(which was checked on TPOINT output), not checked against TPOINT output for
+equatorial terms. With it TPOINT's identities HCES = HHSH1, HCEC = HHCH1,
+DCES = HDSD1, DCEC = HDCD1 hold (a test checks them). Like the named equatorial terms
+the functions are of the mechanical angles, so on a German mount's flipped side
+(``h + 180 deg``, ``180 deg - dec``) they take the values there.
+
 Two forms, like the named terms:
 
 * ``form="linear"`` (:class:`Harmonic`): TPOINT's own definition, an offset of the
@@ -80,13 +95,29 @@ __all__ = [
     "harmonic_term",
     "harmonic_function",
     "RESULTS",
+    "EQUATORIAL_RESULTS",
 ]
 
 RESULTS = {"A": "azimuth", "E": "elevation", "S": "cross-elevation (dA cos E)"}
-"""Letter after ``H`` -> what the term corrects."""
+"""Letter after ``H`` -> what the term corrects (alt-az)."""
+EQUATORIAL_RESULTS = {"H": "hour angle", "D": "declination", "X": "east-west (dh cos dec)"}
+"""Letter after ``H`` -> what the term corrects (equatorial)."""
 _FUNCTIONS = {"S": "sine", "C": "cosine"}
 _ARGUMENTS = {"A": "azimuth", "E": "elevation"}
+_EQUATORIAL_ARGUMENTS = {"H": "hour angle", "D": "declination"}
+_MOUNTS = ("altaz", "equatorial")
 _MAX_FACTORS = 2
+
+# result letter -> (axis corrected, sign of observed minus raw, cross-axis: divided by
+# cos of axis 2). Alt-az: checked on TPOINT output; equatorial: by analogy with IH ID CH.
+_RESULT_RULES = {
+    "A": (0, -1.0, False),
+    "E": (1, 1.0, False),
+    "S": (0, -1.0, True),
+    "H": (0, 1.0, False),
+    "D": (1, 1.0, False),
+    "X": (0, 1.0, True),
+}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,15 +135,27 @@ class HarmonicSpec:
     result: str
     factors: tuple[tuple[str, str, int], ...]
 
+    @property
+    def mount(self) -> str:
+        """``"altaz"`` or ``"equatorial"``: the mount the name is a term of."""
+        return "equatorial" if self.result in EQUATORIAL_RESULTS else "altaz"
+
     def describe(self) -> str:
-        """The formula in words, e.g. ``dA = -coef cos(2 A')``."""
+        """The formula in words, e.g. ``dA = -coef cos(2 A')``, ``dh = +coef sin(h)``."""
         parts = []
         for func, arg, mult in self.factors:
-            x = "A'" if arg == "A" else "E"
+            x = {"A": "A'", "E": "E", "H": "h", "D": "dec"}[arg]
             multiplier = "" if mult == 1 else f"{mult} "
             parts.append(f"{'sin' if func == 'S' else 'cos'}({multiplier}{x})")
         f = " ".join(parts)
-        return {"A": f"dA = -coef {f}", "E": f"dE = +coef {f}", "S": f"dA cos E = -coef {f}"}[self.result]
+        return {
+            "A": f"dA = -coef {f}",
+            "E": f"dE = +coef {f}",
+            "S": f"dA cos E = -coef {f}",
+            "H": f"dh = +coef {f}",
+            "D": f"ddec = +coef {f}",
+            "X": f"dh cos dec = +coef {f}",
+        }[self.result]
 
 
 def is_harmonic_name(name: str) -> bool:
@@ -123,27 +166,45 @@ def is_harmonic_name(name: str) -> bool:
     return isinstance(name, str) and name.strip().upper().startswith("H")
 
 
-def parse_harmonic(name: str) -> HarmonicSpec:
-    """Parse a TPOINT harmonic-term name such as ``HACA2``, ``HESACE`` or ``HSCA5CE8``.
+def parse_harmonic(name: str, mount: str = "altaz") -> HarmonicSpec:
+    """Parse a TPOINT harmonic-term name such as ``HACA2``, ``HESACE`` or ``HSCA5CE8``
+    (``mount="altaz"``), or ``HHSH``, ``HDCD2``, ``HXSH2CD`` (``mount="equatorial"``).
 
     Raises:
         ValueError: naming the character that does not fit the grammar
-            ``H {A|E|S} {S|C}{A|E}[m] [{S|C}{A|E}[m]]``.
+            ``H {A|E|S} {S|C}{A|E}[m] [{S|C}{A|E}[m]]`` (alt-az) or
+            ``H {H|D|X} {S|C}{H|D}[m] [{S|C}{H|D}[m]]`` (equatorial), or for an unknown mount.
     """
+    if mount not in _MOUNTS:
+        raise ValueError(f"unknown mount {mount!r} for harmonic terms; expected one of {list(_MOUNTS)}")
     text = name.strip().upper()
+    equatorial = mount == "equatorial"
+    results = EQUATORIAL_RESULTS if equatorial else RESULTS
+    arguments = _EQUATORIAL_ARGUMENTS if equatorial else _ARGUMENTS
 
     def bad(pos: int, what: str):
         got = repr(text[pos]) if pos < len(text) else "the end of the name"
-        return ValueError(
-            f"harmonic term {name!r}: character {pos + 1} is {got}, expected {what} "
-            "(harmonic names read H, then A/E/S for what is corrected, then one or two factors "
-            "S or C, A or E, optional multiplier; e.g. HACA2, HESE5, HESACE, HSCA5CE8)"
-        )
+        if equatorial:
+            grammar = (
+                "(equatorial harmonic names read H, then H/D/X for what is corrected, then one or two "
+                "factors S or C, H or D, optional multiplier; e.g. HHSH, HDCD2, HXSH2CD)"
+            )
+        else:
+            grammar = (
+                "(harmonic names read H, then A/E/S for what is corrected, then one or two factors "
+                "S or C, A or E, optional multiplier; e.g. HACA2, HESE5, HESACE, HSCA5CE8)"
+            )
+        return ValueError(f"harmonic term {name!r}: character {pos + 1} is {got}, expected {what} {grammar}")
 
     if not text.startswith("H"):
         raise bad(0, "'H'")
-    if len(text) < 2 or text[1] not in RESULTS:
-        raise bad(1, "A (azimuth), E (elevation) or S (cross-elevation)")
+    if len(text) < 2 or text[1] not in results:
+        raise bad(
+            1,
+            "H (hour angle), D (declination) or X (east-west)"
+            if equatorial
+            else "A (azimuth), E (elevation) or S (cross-elevation)",
+        )
     pos, factors = 2, []
     while pos < len(text) or not factors:
         if len(factors) == _MAX_FACTORS:
@@ -153,8 +214,13 @@ def parse_harmonic(name: str) -> HarmonicSpec:
             )
         if pos >= len(text) or text[pos] not in _FUNCTIONS:
             raise bad(pos, "S (sine) or C (cosine)")
-        if pos + 1 >= len(text) or text[pos + 1] not in _ARGUMENTS:
-            raise bad(pos + 1, "A (azimuth) or E (elevation) as the argument")
+        if pos + 1 >= len(text) or text[pos + 1] not in arguments:
+            raise bad(
+                pos + 1,
+                "H (hour angle) or D (declination) as the argument"
+                if equatorial
+                else "A (azimuth) or E (elevation) as the argument",
+            )
         digits = re.match(r"\d*", text[pos + 2 :]).group(0)
         if digits.startswith("0"):
             raise ValueError(
@@ -168,11 +234,13 @@ def parse_harmonic(name: str) -> HarmonicSpec:
 def harmonic_function(
     factors: tuple[tuple[str, str, int], ...], az: Float[Array, ""], el: Float[Array, ""]
 ) -> Float[Array, ""]:
-    """The product of the factors at azimuth ``az`` (as the data count it) and elevation
-    ``el`` (radians); the azimuth argument is ``A' = pi - az`` (TPOINT's convention)."""
+    """The product of the factors at the mount's angles ``(az, el)`` (radians): azimuth
+    (as the data count it) and elevation, or hour angle and declination. The azimuth
+    argument is ``A' = pi - az`` (TPOINT's convention); the hour angle ``H`` is ``az``
+    itself, ``D`` and ``E`` are ``el``."""
     out = jnp.ones_like(jnp.asarray(az, float))
     for func, arg, mult in factors:
-        x = (jnp.pi - az) if arg == "A" else el
+        x = {"A": jnp.pi - az, "H": az}.get(arg, el)
         out = out * (jnp.sin(mult * x) if func == "S" else jnp.cos(mult * x))
     return out
 
@@ -203,11 +271,10 @@ class Harmonic(LinearTerm):
 
     def basis(self, p):
         f = harmonic_function(self.factors, p.az, p.el)
-        if self.result == "A":
-            return -f, 0.0
-        if self.result == "E":
-            return 0.0, f
-        return -f / p.cos_el, 0.0
+        axis, sign, cross = _RESULT_RULES[self.result]
+        if axis == 1:
+            return 0.0, sign * f
+        return (sign * f / p.cos_el if cross else sign * f), 0.0
 
 
 class RigorousHarmonic(Term):
@@ -232,26 +299,32 @@ class RigorousHarmonic(Term):
         return self.label
 
     def encoder_offset(self, encoder):
-        if self.result == "S":
+        axis, sign, cross = _RESULT_RULES[self.result]
+        if cross:
             return None
-        f = self.coef * harmonic_function(self.factors, encoder[0], encoder[1])
-        return angle_pair(-f, 0.0) if self.result == "A" else angle_pair(0.0, f)
+        f = sign * self.coef * harmonic_function(self.factors, encoder[0], encoder[1])
+        return angle_pair(f, 0.0) if axis == 0 else angle_pair(0.0, f)
 
     def boresight_rotation(self, angles):
-        if self.result != "S":
+        axis, sign, cross = _RESULT_RULES[self.result]
+        if not cross:
             return None
-        return rot_z(self.coef * harmonic_function(self.factors, angles[0], angles[1]))
+        # rot_z(t) turns the boresight so that axis 1 changes by -t sec(axis 2).
+        return rot_z(-sign * self.coef * harmonic_function(self.factors, angles[0], angles[1]))
 
 
-def harmonic_term(name: str, coef: float = 0.0, form: str = "linear") -> Harmonic | RigorousHarmonic:
-    """The harmonic term called ``name`` (e.g. ``"HACA2"``) with coefficient ``coef``
-    (radians), in TPOINT's ``"linear"`` form or the ``"rigorous"`` form.
+def harmonic_term(
+    name: str, coef: float = 0.0, form: str = "linear", mount: str = "altaz"
+) -> Harmonic | RigorousHarmonic:
+    """The harmonic term called ``name`` (e.g. ``"HACA2"``; ``"HHSH"`` with
+    ``mount="equatorial"``) with coefficient ``coef`` (radians), in TPOINT's
+    ``"linear"`` form or the ``"rigorous"`` form.
 
     Raises:
-        ValueError: for a name that is not a harmonic term (the message says which
-            character is wrong) or an unknown form.
+        ValueError: for a name that is not a harmonic term of ``mount`` (the message
+            says which character is wrong), an unknown form or an unknown mount.
     """
-    spec = parse_harmonic(name)
+    spec = parse_harmonic(name, mount=mount)
     forms = {"linear": Harmonic, "rigorous": RigorousHarmonic}
     if form not in forms:
         raise ValueError(f"unknown term form {form!r}; expected one of {sorted(forms)}")

@@ -6,13 +6,39 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from . import _NAMES, camera, rigorous, sun_vector, xy
+from . import _NAMES, camera, equatorial, rigorous, sun_vector, xy
 from . import gpoint as gpoint_library
 from . import harmonic as harmonic_library
 from . import heliostat as heliostat_terms
 from .base import SkyPoint, Term, param, param_fields, param_unit
 from .camera import CameraMounting
-from .gpoint import GPOINT_ALTAZ_TERMS, GpointExtra, GpointTerm, gpoint_extra
+from .equatorial import (
+    BASIC_EQUATORIAL,
+    CH,
+    DAF,
+    DCEC,
+    DCES,
+    EQUATORIAL_FORMS,
+    EQUATORIAL_LINEAR_TERMS,
+    EQUATORIAL_RIGOROUS_TERMS,
+    FO,
+    HCEC,
+    HCES,
+    ID,
+    IH,
+    MA,
+    ME,
+    NP,
+)
+from .gpoint import (
+    GPOINT_ALTAZ_TERMS,
+    GPOINT_GEM_TERMS,
+    GpointExtra,
+    GpointGemTerm,
+    GpointTerm,
+    gpoint_extra,
+    gpoint_model_terms,
+)
 from .harmonic import (
     Harmonic,
     RigorousHarmonic,
@@ -56,34 +82,74 @@ def names(spec: str | Iterable[str]) -> list[str]:
     return [s.strip().upper() for s in spec if s.strip()]
 
 
-def tpoint(spec: str | Iterable[str] = BASIC_ALTAZ, form: str = "linear", values: dict | None = None) -> tuple[Term, ...]:
-    """TPOINT terms by name, e.g. ``tpoint("IA IE NPAE CA AN AW TF TX HACA2 HESE5")``.
+MOUNTS = ("altaz", "equatorial")
+"""Mounts :func:`tpoint` builds terms for."""
 
-    Names starting with ``H`` are TPOINT's harmonic terms, generated from the name
-    (:mod:`pointax.terms.harmonic`); the others are the named terms of
-    :mod:`pointax.terms.tpoint`. Names are case-insensitive.
+
+def tpoint(
+    spec: str | Iterable[str] | None = None,
+    form: str = "linear",
+    values: dict | None = None,
+    mount: str = "altaz",
+    latitude: float | None = None,
+) -> tuple[Term, ...]:
+    """TPOINT terms by name, e.g. ``tpoint("IA IE NPAE CA AN AW TF TX HACA2 HESE5")`` or
+    ``tpoint("IH ID CH NP MA ME TF HHSH", mount="equatorial", latitude=px.deg(33.4))``.
+
+    Names starting with ``H`` that are not named terms (HCES, HCEC, ... are) are TPOINT's
+    harmonic terms, generated from the name (:mod:`pointax.terms.harmonic`); the others
+    are the named terms of :mod:`pointax.terms.tpoint` (alt-az) or
+    :mod:`pointax.terms.equatorial`. Names are case-insensitive.
 
     Args:
-        spec: names separated by spaces or commas, or a sequence of names.
+        spec: names separated by spaces or commas, or a sequence of names (default:
+            TPOINT's basic terms of the mount, :data:`BASIC_ALTAZ` or
+            :data:`BASIC_EQUATORIAL`).
         form: 'linear' (TPOINT's own definitions, the default) or 'rigorous'
             (exact rotations and encoder corrections, :mod:`pointax.terms.rigorous`,
             :class:`pointax.terms.harmonic.RigorousHarmonic`).
         values: optional starting values in radians, by (upper-case) name.
+        mount: 'altaz' (default) or 'equatorial': the same name may mean different
+            terms on the two (TF).
+        latitude: the site's latitude in radians, for the equatorial terms that need it
+            (TF, DAF: :data:`pointax.terms.equatorial.NEEDS_LATITUDE`); use the value
+            given to ``pointax.Equatorial``. Not used by alt-az terms.
 
     Raises:
-        ValueError: for an unknown form or term name (the message lists the known ones,
-            or says which character of a harmonic name is wrong).
+        ValueError: for an unknown form, mount or term name (the message lists the
+            known ones, or says which character of a harmonic name is wrong), or an
+            equatorial term that needs ``latitude`` when none is given.
     """
-    if form not in FORMS:
-        raise ValueError(f"unknown term form {form!r}; expected one of {sorted(FORMS)}")
-    library = FORMS[form]
+    if mount not in MOUNTS:
+        raise ValueError(f"unknown mount {mount!r}; expected one of {list(MOUNTS)}")
+    equatorial_mount = mount == "equatorial"
+    forms = EQUATORIAL_FORMS if equatorial_mount else FORMS
+    if form not in forms:
+        raise ValueError(f"unknown term form {form!r}; expected one of {sorted(forms)}")
+    if spec is None:
+        spec = BASIC_EQUATORIAL if equatorial_mount else BASIC_ALTAZ
+    library = forms[form]
     values = {k.upper() if isinstance(k, str) else k: v for k, v in (values or {}).items()}
     out = []
     for name in names(spec):
         if name in library:
-            out.append(library[name](coef=values.pop(name, 0.0)))
+            kwargs = {}
+            if equatorial_mount and name in equatorial.NEEDS_LATITUDE:
+                if latitude is None:
+                    raise ValueError(
+                        f"equatorial term {name} needs the site's latitude: "
+                        "pointax.terms.tpoint(..., mount='equatorial', latitude=<radians>), "
+                        "the value given to pointax.Equatorial"
+                    )
+                kwargs["latitude"] = float(latitude)
+            out.append(library[name](coef=values.pop(name, 0.0), **kwargs))
         elif is_harmonic_name(name):
-            out.append(harmonic_term(name, coef=values.pop(name, 0.0), form=form))
+            out.append(harmonic_term(name, coef=values.pop(name, 0.0), form=form, mount=mount))
+        elif equatorial_mount:
+            raise ValueError(
+                f"unknown TPOINT equatorial term {name!r}; known equatorial terms: {' '.join(library)}, "
+                "and harmonic terms named H{H|D|X}{S|C}{H|D}[m][{S|C}{H|D}[m]] (e.g. HHSH, HDCD2, HXSH2CD)"
+            )
         else:
             raise ValueError(
                 f"unknown TPOINT term {name!r}; known alt-az terms: {' '.join(library)}, "
@@ -94,27 +160,38 @@ def tpoint(spec: str | Iterable[str] = BASIC_ALTAZ, form: str = "linear", values
     return tuple(out)
 
 
-def gpoint_names(spec: str | Iterable[str]) -> list[str]:
+def gpoint_names(spec: str | Iterable[str], mount: str = "altaz") -> list[str]:
     """The parameter names :func:`gpoint_terms` gives for ``spec``, in order: gpoint's
     names lower-case (``ia``), extras in canonical form (``az:sincos:az;el:2;2``),
-    TPOINT names upper-case (``IA``). Use it to split a ``--fix`` list."""
-    return gpoint_library.split_names(spec)
+    TPOINT names upper-case (``IA``). Use it to split a ``--fix`` list. ``mount``:
+    'altaz' or 'gem', as :func:`gpoint_terms`."""
+    return gpoint_library.split_names(spec, mount)
 
 
-def gpoint_terms(spec: str | Iterable[str], form: str = "linear", values: dict | None = None) -> tuple[Term, ...]:
+def gpoint_terms(
+    spec: str | Iterable[str],
+    form: str = "linear",
+    values: dict | None = None,
+    mount: str = "altaz",
+    latitude: float | None = None,
+) -> tuple[Term, ...]:
     """Terms named as RTS2 gpoint names them, mixed with TPOINT's names.
 
     * gpoint's alt-az terms, written lower-case as gpoint writes them: ``ia ie tn te
-      npae npoa tf`` (:class:`pointax.terms.gpoint.GpointTerm`);
+      npae npoa tf`` (:class:`pointax.terms.gpoint.GpointTerm`); with ``mount='gem'``
+      its German-equatorial terms ``ih id ch np ma me tf fo daf``
+      (:class:`pointax.terms.gpoint.GpointGemTerm`);
     * gpoint's extra terms, ``axis:function:variables:multipliers`` (e.g.
-      ``az:sincos:az;el:2;2`` = coef sin(2 az) cos(2 el) on azimuth;
-      :func:`pointax.terms.gpoint.gpoint_extra`);
-    * any other name is a TPOINT name (:func:`tpoint`, case-insensitive), so ``IA``,
-      ``CA`` and ``HACA2`` are TPOINT's and ``ia`` is gpoint's.
+      ``az:sincos:az;el:2;2`` = coef sin(2 az) cos(2 el) on azimuth, ``ha:...`` and
+      ``dec:...`` on a GEM; :func:`pointax.terms.gpoint.gpoint_extra`);
+    * any other name is a TPOINT name (:func:`tpoint`, case-insensitive; equatorial
+      names on a GEM), so ``IA``, ``CA`` and ``HACA2`` are TPOINT's and ``ia`` is
+      gpoint's.
 
-    gpoint terms are defined on the azimuth as gpoint counts it, from South through
-    West: use them in ``pointax.AltAz(terms, azimuth="S-W")`` (``run.azimuth`` of a run
-    read by :func:`pointax.io.read_gpoint`).
+    gpoint's alt-az terms are defined on the azimuth as gpoint counts it, from South
+    through West: use them in ``pointax.AltAz(terms, azimuth="S-W")`` (``run.azimuth``
+    of a run read by :func:`pointax.io.read_gpoint`); its GEM terms in
+    ``pointax.Equatorial(terms, latitude=run.latitude)``.
 
     Args:
         spec: names separated by commas or spaces, or a sequence of names.
@@ -122,20 +199,25 @@ def gpoint_terms(spec: str | Iterable[str], form: str = "linear", values: dict |
             are always exactly gpoint's formulas.
         values: optional starting values in radians, by the names of
             :func:`gpoint_names`.
+        mount: 'altaz' (default) or 'gem' ('equatorial' is taken as 'gem').
+        latitude: radians: for GEM ``tf``, ``daf``, extras of az/el/zd and TPOINT's
+            TF and DAF.
 
     Raises:
         ValueError: for an unknown name or a malformed extra (the message says which).
     """
-    tpoint([], form=form)  # an unknown form raises even when no TPOINT name is given
+    gmount = gpoint_library.check_gpoint_mount(mount)
+    where = {} if gmount == "altaz" else {"mount": "equatorial", "latitude": latitude}
+    tpoint([], form=form, **where)  # an unknown form raises even when no TPOINT name is given
     values = dict(values or {})
     out = []
     for token in gpoint_library.split_tokens(spec):
-        kind, name = gpoint_library.classify(token)
+        kind, name = gpoint_library.classify(token, gmount)
         coef = values.pop(name, 0.0)
         if kind == "tpoint":
-            out.extend(tpoint([name], form=form, values={name: coef}))
+            out.extend(tpoint([name], form=form, values={name: coef}, **where))
         else:
-            out.append(gpoint_library.gpoint_term(token, coef=coef))
+            out.append(gpoint_library.gpoint_term(token, coef=coef, mount=gmount, latitude=latitude))
     if values:
         raise ValueError(f"values given for terms not in the list: {sorted(values)}")
     return tuple(out)

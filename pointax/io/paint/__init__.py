@@ -13,6 +13,12 @@ or its parent. :func:`read_paint` reads a whole folder into a :class:`PaintRun` 
 the per-sample arrays a kinematics fit needs (motor increments, sun directions and
 measured mirror normals in East-North-Up).
 
+``heliostat-properties.json`` comes in two layouts, both read (``layout`` of the
+result says which): the current one (``kinematics_properties``, initial orientation
+(0, -1, 0)) and PAINT's first schema (``kinematic_properties``, initial orientation
+(0, 0, 1), actuators typed "ideal", nonzero joint translations), which describes the
+same kinematic chain (:func:`read_heliostat`).
+
 Conventions of the files, converted here where data enters pointax:
 
 * Positions are WGS84 ``[latitude deg, longitude deg, height m]``; :func:`wgs84_to_enu`
@@ -40,6 +46,9 @@ from .document import (  # noqa: F401  (the file names: importable from here, as
     CALIBRATION_SUFFIX,
     FOCAL_SPOT_METHODS,
     HELIOSTAT_FILE,
+    KINEMATICS_KEYS,
+    LAYOUT_CURRENT,
+    LAYOUT_SCHEMA1,
     POWER_PLANT_KEY,
     TOWER_FILE,
     PaintFormatError,
@@ -56,17 +65,20 @@ from .files import (
     read_tower,
 )
 from .geometry import paint_azimuth_to_north_east, sun_enu_from_paint, wgs84_to_enu
-from .run import PaintRun, read_paint
+from .run import PaintRun, mirror_centre, read_paint
 
 __all__ = [
     "FOCAL_SPOT_METHODS",
     "CalibrationSample",
     "HeliostatProperties",
+    "LAYOUT_CURRENT",
+    "LAYOUT_SCHEMA1",
     "LinearActuator",
     "PaintFormatError",
     "PaintRun",
     "TargetPlane",
     "Tower",
+    "mirror_centre",
     "paint_azimuth_to_north_east",
     "read_calibration",
     "read_heliostat",

@@ -21,6 +21,9 @@ __all__ = [
     "CALIBRATION_SUFFIX",
     "TOWER_FILE",
     "POWER_PLANT_KEY",
+    "KINEMATICS_KEYS",
+    "LAYOUT_CURRENT",
+    "LAYOUT_SCHEMA1",
     "PaintFormatError",
     "JsonDocument",
     "describe_value",
@@ -34,6 +37,16 @@ HELIOSTAT_FILE = "heliostat-properties.json"
 CALIBRATION_SUFFIX = "-calibration-properties.json"
 TOWER_FILE = "tower-measurements.json"
 POWER_PLANT_KEY = "power_plant_properties"
+
+LAYOUT_CURRENT = "kinematics_properties (current)"
+"""The layout of ``heliostat-properties.json`` in current PAINT releases: a
+``kinematics_properties`` block, ``initial_orientation`` (0, -1, 0), linear actuators."""
+LAYOUT_SCHEMA1 = "kinematic_properties (schema 1)"
+"""The earlier layout (PAINT's first schema, e.g. ARTIST's AC43 tutorial files): a
+``kinematic_properties`` block, ``initial_orientation`` (0, 0, 1), actuators typed
+``"ideal"``, nonzero joint and concentrator translations."""
+KINEMATICS_KEYS = {LAYOUT_CURRENT: "kinematics_properties", LAYOUT_SCHEMA1: "kinematic_properties"}
+"""The name of the kinematics block in each layout."""
 
 
 class PaintFormatError(FileFormatError):

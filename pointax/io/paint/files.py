@@ -15,6 +15,9 @@ import numpy as np
 from .document import (
     CALIBRATION_SUFFIX,
     FOCAL_SPOT_METHODS,
+    KINEMATICS_KEYS,
+    LAYOUT_CURRENT,
+    LAYOUT_SCHEMA1,
     POWER_PLANT_KEY,
     JsonDocument,
     PaintFormatError,
@@ -71,11 +74,20 @@ class LinearActuator:
     """Kept as given (m); 0 in the PAINT files seen."""
     radius_shift: float = 0.0
     """Kept as given (m); 0 in the PAINT files seen."""
+    type_axis: str = "linear"
+    """``type_axis`` as written: ``"linear"``; ``"ideal"`` in schema-1 files, whose
+    actuators carry the same linear-actuator parameters and are read with the same law."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class HeliostatProperties:
-    """A PAINT ``heliostat-properties.json``."""
+    """A PAINT ``heliostat-properties.json``, in either layout (``layout``).
+
+    Everything here is described in the current layout's terms, the kinematic chain of
+    DESIGN.md (``n = Re(theta1 - pi/2) Ru(theta2) initial_orientation``); what a
+    schema-1 file wrote differently is kept beside it (``file_orientation``,
+    ``LinearActuator.type_axis``).
+    """
 
     path: str
     position: np.ndarray
@@ -85,7 +97,11 @@ class HeliostatProperties:
     height: float
     """Mirror height (m)."""
     initial_orientation: np.ndarray
-    """``(3,)`` mirror normal at zero joint angles, ENU (PAINT: ``(0, -1, 0)``)."""
+    """``(3,)`` the vector the chain ``Re(theta1 - pi/2) Ru(theta2)`` turns into the
+    mirror normal, ENU (current PAINT files: ``(0, -1, 0)``, as written). A schema-1
+    file describes the same chain as ``Re(theta1) Rn(theta2)`` acting on its
+    ``(0, 0, 1)``; since ``Re(theta1 - pi/2) Ru(theta2) Re(pi/2) = Re(theta1) Rn(theta2)``,
+    its orientation is read as ``Re(pi/2) o_file`` (so ``(0, 0, 1)`` -> ``(0, -1, 0)``)."""
     actuators: tuple[LinearActuator, LinearActuator]
     """Axis 1 and axis 2 actuators."""
     joint_translations: np.ndarray
@@ -95,6 +111,19 @@ class HeliostatProperties:
     (``concentrator_translation_{e,n,u}``); it turns with the mirror."""
     renovation: str | None = None
     """Date of the last renovation as written (e.g. ``"2021-04-15"``), if given."""
+    layout: str = LAYOUT_CURRENT
+    """Which layout the file has: :data:`~pointax.io.paint.LAYOUT_CURRENT`
+    (``"kinematics_properties (current)"``) or :data:`~pointax.io.paint.LAYOUT_SCHEMA1`
+    (``"kinematic_properties (schema 1)"``)."""
+    file_orientation: np.ndarray | None = None
+    """``(3,)`` ``initial_orientation`` exactly as written in the file (``None``: the
+    same as ``initial_orientation``)."""
+
+    @property
+    def kinematics_key(self) -> str:
+        """The name of the file's kinematics block (``kinematics_properties`` or
+        ``kinematic_properties``)."""
+        return KINEMATICS_KEYS[self.layout]
 
     @property
     def lat_deg(self) -> float:
@@ -123,11 +152,13 @@ _ACTUATOR_NUMBERS = (
 _POSITIVE = {"increment", "offset", "pivot_radius"}
 
 
-def _actuator(doc: JsonDocument, value: Any, field: str) -> LinearActuator:
+def _actuator(doc: JsonDocument, value: Any, field: str, layout: str = LAYOUT_CURRENT) -> LinearActuator:
     a = doc.obj(value, field)
     kind = doc.string(a, "type_axis", field)
-    if kind != "linear":
-        doc.fail(doc.join(field, "type_axis"), f"is {kind!r}: only linear actuators are supported")
+    allowed = ("linear", "ideal") if layout == LAYOUT_SCHEMA1 else ("linear",)
+    if kind not in allowed:
+        also = " (and, in the schema-1 layout, 'ideal')" if layout == LAYOUT_SCHEMA1 else ""
+        doc.fail(doc.join(field, "type_axis"), f"is {kind!r}: only linear actuators are supported{also}")
     v = {k: doc.number(a, k, field, positive=k in _POSITIVE) for k in _ACTUATOR_NUMBERS}
     cw, cw_field = doc.get(a, "clockwise_axis_movement", field)
     if isinstance(cw, bool):
@@ -144,15 +175,34 @@ def _actuator(doc: JsonDocument, value: Any, field: str) -> LinearActuator:
             f"{v['max_movement_angle']} is below min_movement_angle {v['min_movement_angle']}",
         )
     shifts = {k: doc.number(a, k, field) if k in a else 0.0 for k in ("offset_shift", "radius_shift")}
-    return LinearActuator(clockwise=clockwise, **v, **shifts)
+    return LinearActuator(clockwise=clockwise, **v, **shifts, type_axis=kind)
+
+
+def _re_half_pi(v: np.ndarray) -> np.ndarray:
+    """``Re(pi/2) v``: a right-handed quarter turn about East, (0, 0, 1) -> (0, -1, 0)."""
+    return np.array([v[0], -v[2], v[1]], np.float64)
 
 
 def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
-    """Read a PAINT ``heliostat-properties.json``.
+    """Read a PAINT ``heliostat-properties.json``, in either layout.
+
+    Two layouts occur in PAINT releases (``HeliostatProperties.layout`` says which
+    was read):
+
+    * current (``"kinematics_properties (current)"``): a ``kinematics_properties``
+      block, ``initial_orientation`` (0, -1, 0), actuators ``"linear"``;
+    * schema 1 (``"kinematic_properties (schema 1)"``): a ``kinematic_properties``
+      block, ``initial_orientation`` (0, 0, 1), actuators typed ``"ideal"`` with the
+      linear-actuator parameters, nonzero joint translations. It describes the same
+      kinematic chain (checked on AC43: the nominal errors are those of the current
+      layout's heliostats); its orientation is turned into the current layout's
+      description (see ``HeliostatProperties.initial_orientation``), its actuators
+      are read with the linear law, and its translations are kept as written (in the
+      chain's frames, as DLR's ARTIST applies them).
 
     Checks types and finiteness of every field used, that there are exactly two
-    actuators, both ``"linear"``, with positive ``increment``, ``offset`` and
-    ``pivot_radius``. Facet properties are not read.
+    actuators, both ``"linear"`` (or ``"ideal"`` in schema 1), with positive
+    ``increment``, ``offset`` and ``pivot_radius``. Facet properties are not read.
 
     Raises:
         FileNotFoundError: no such file.
@@ -164,15 +214,17 @@ def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
     position = doc.geodetic(value, field)
     width = doc.number(root, "width", positive=True)
     height = doc.number(root, "height", positive=True)
-    orientation = doc.vector(root, "initial_orientation")
-    if not np.linalg.norm(orientation) > 0:
+    layout = _layout(doc, root)
+    written = doc.vector(root, "initial_orientation")
+    if not np.linalg.norm(written) > 0:
         doc.fail("initial_orientation", "is the zero vector")
-    value, kin_field = doc.get(root, "kinematics_properties")
+    orientation = frozen_array(_re_half_pi(written)) if layout == LAYOUT_SCHEMA1 else written
+    value, kin_field = doc.get(root, KINEMATICS_KEYS[layout])
     kin = doc.obj(value, kin_field)
     value, field = doc.get(kin, "actuators", kin_field)
     if not isinstance(value, list) or len(value) != 2:
         doc.fail(field, f"is {describe_value(value)}, expected an array of exactly 2 actuators (axis 1, axis 2)")
-    actuators = tuple(_actuator(doc, a, doc.join(field, k)) for k, a in enumerate(value))
+    actuators = tuple(_actuator(doc, a, doc.join(field, k), layout) for k, a in enumerate(value))
     joints = frozen_array(
         [[doc.number(kin, f"joint_translation_{c}_{j}", kin_field) for c in "enu"] for j in (1, 2)]
     )
@@ -188,7 +240,29 @@ def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
         joint_translations=joints,
         concentrator_translation=concentrator,
         renovation=renovation,
+        layout=layout,
+        file_orientation=written,
     )
+
+
+def _layout(doc: JsonDocument, root: dict) -> str:
+    """The layout of a heliostat-properties file, from the name of its kinematics block."""
+    current, schema1 = (KINEMATICS_KEYS[k] in root for k in (LAYOUT_CURRENT, LAYOUT_SCHEMA1))
+    if current and schema1:
+        doc.fail(
+            KINEMATICS_KEYS[LAYOUT_SCHEMA1],
+            f"is present beside {KINEMATICS_KEYS[LAYOUT_CURRENT]}: a file has one layout or the other "
+            "(current: kinematics_properties; schema 1: kinematic_properties), not both",
+        )
+    if schema1:
+        return LAYOUT_SCHEMA1
+    if not current:
+        doc.fail(
+            KINEMATICS_KEYS[LAYOUT_CURRENT],
+            "is missing (the earlier PAINT layout's kinematic_properties is missing too): "
+            "no kinematics block in this file",
+        )
+    return LAYOUT_CURRENT
 
 
 # --------------------------------------------------------------------------- calibration samples

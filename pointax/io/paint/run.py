@@ -31,6 +31,7 @@ from .geometry import sun_enu_from_paint, wgs84_to_enu
 
 __all__ = [
     "PaintRun",
+    "mirror_centre",
     "read_paint",
 ]
 
@@ -68,6 +69,15 @@ class PaintRun:
     mirror_offset: bool = False
     """Whether the heliostat-to-focal-spot direction starts at the offset mirror centre
     (see :func:`read_paint`) rather than at the heliostat position."""
+    mirror_centre: np.ndarray | None = None
+    """``(n, 3)`` the reflection point of each sample, m ENU from the heliostat position
+    (:func:`mirror_centre`; zeros when ``mirror_offset`` is False)."""
+
+    @property
+    def layout(self) -> str:
+        """The layout of the heliostat file: ``"kinematics_properties (current)"`` or
+        ``"kinematic_properties (schema 1)"`` (:attr:`HeliostatProperties.layout`)."""
+        return self.heliostat.layout
 
     @property
     def sample_ids(self) -> list[str]:
@@ -125,19 +135,23 @@ def read_paint(
             records which one each sample used.
         tower: path of ``tower-measurements.json``; by default the one in ``directory``,
             else in its parent.
-        mirror_offset: start the reflected ray at the mirror centre instead of the
-            heliostat position. As in DLR's ARTIST kinematics, the concentrator
-            translation is applied after both joint rotations, so it turns with the
-            mirror; this is computed only where that is defined by the normal alone
-            (zero joint translations, concentrator translation parallel to
-            ``initial_orientation``): centre = position + (t . o) n, solved for the
-            normal n by fixed-point iteration. Default False (DESIGN's definition:
-            from the heliostat position).
+        mirror_offset: start the reflected ray at the mirror centre (the reflection
+            point) instead of the heliostat position: the joint and concentrator
+            translations of the heliostat file are applied in the kinematic chain as
+            DLR's ARTIST applies them (:func:`mirror_centre`), for either layout, and
+            the normal, on which the centre depends, is found by fixed-point
+            iteration. ``PaintRun.mirror_centre`` holds the centres used. Default
+            False (DESIGN's definition: from the heliostat position).
 
     Measured on AA39 (17.5 cm concentrator translation, focal spots 45-65 m away): the
     mirror offset turns the measured normals by 0.3-1.0 mrad (about 0.6 mrad RMS),
     comparable to the 0.8 mrad RMS between the HeliOS and UTIS centroids, so it is
     not negligible at the fit's accuracy; it is a smooth, mostly systematic effect.
+    On AC43 (schema 1: 31.5 cm joint-2 and 44 cm concentrator translations) it turns
+    them by about 1.0 mrad.
+
+    Both layouts of ``heliostat-properties.json`` are read (:func:`read_heliostat`);
+    ``PaintRun.layout`` says which.
 
     Raises:
         FileNotFoundError: the folder, ``heliostat-properties.json`` or the tower file
@@ -145,8 +159,7 @@ def read_paint(
         PaintFormatError: a malformed file (naming file, field and line), no
             calibration samples, a sample whose ``target_name`` the tower lacks, or
             one whose motor position lies outside its actuator's range.
-        ValueError: an unknown ``focal_spot`` method, or ``mirror_offset`` where it is
-            not defined.
+        ValueError: an unknown ``focal_spot`` method.
     """
     if focal_spot not in FOCAL_SPOT_METHODS:
         raise ValueError(f"unknown focal_spot method {focal_spot!r}; expected one of {FOCAL_SPOT_METHODS}")
@@ -178,10 +191,12 @@ def read_paint(
     sun = sun_enu_from_paint([s.sun_azimuth_deg for s in samples], [s.sun_elevation_deg for s in samples])
 
     normal = _bisector(samples, sun, focal_enu)
+    centre = np.zeros_like(focal_enu)
     if mirror_offset:
-        along = _mirror_offset_along_normal(heliostat)
-        for _ in range(4):  # the offset changes the normal by ~1e-3: converges to 1e-12 in 4 steps
-            normal = _bisector(samples, sun, focal_enu - along * normal)
+        # The centre moves by ~0.2 m with the normal's ~1e-3 change: 6 steps converge to 1e-12.
+        for _ in range(6):
+            centre = mirror_centre(heliostat, normal)
+            normal = _bisector(samples, sun, focal_enu - centre)
     return PaintRun(
         directory=str(folder),
         heliostat=heliostat,
@@ -194,6 +209,7 @@ def read_paint(
         focal_spot_enu=frozen_array(focal_enu),
         measured_normal=frozen_array(normal),
         mirror_offset=mirror_offset,
+        mirror_centre=frozen_array(centre),
     )
 
 
@@ -219,17 +235,39 @@ def _bisector(samples, sun: np.ndarray, to_spot: np.ndarray) -> np.ndarray:
     return b / norm[:, None]
 
 
-def _mirror_offset_along_normal(heliostat: HeliostatProperties) -> float:
-    """Signed distance (m) of the mirror centre from the heliostat position along the
-    mirror normal, where the concentrator translation is parallel to the initial
-    orientation and the joints are not translated."""
-    t = heliostat.concentrator_translation
-    o = _unit(heliostat.initial_orientation)
-    along = float(t @ o)
-    if np.any(heliostat.joint_translations != 0) or np.linalg.norm(t - along * o) > 1e-9:
-        raise ValueError(
-            f"{heliostat.path}: mirror_offset needs zero joint translations and a concentrator translation "
-            f"parallel to initial_orientation (got {t.tolist()} and {heliostat.initial_orientation.tolist()}); "
-            "otherwise the mirror centre depends on the full kinematic chain"
-        )
-    return along
+def _rot_e(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
+def _rot_u(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def mirror_centre(heliostat: HeliostatProperties, normal: np.ndarray) -> np.ndarray:
+    """The mirror centre (the reflection point), m ENU from the heliostat position, of a
+    mirror whose normal is ``normal`` (``(..., 3)``), by the translations of the
+    heliostat file applied in the kinematic chain as DLR's ARTIST applies them::
+
+        c = T1 + R1 (T2 + R2 Tc),   R1 = Re(theta1 - pi/2),  R2 = Ru(theta2)
+
+    ``T1``, ``T2`` the joint translations, ``Tc`` the concentrator translation (each in
+    the frame of the joint before it), ``theta1, theta2`` the joint angles that turn
+    ``(0, -1, 0)`` into ``normal`` in the chain of DESIGN.md
+    (``theta1 = atan2(-n_N, n_U)`` the mirror's zenith angle, ``theta2 = asin n_E``),
+    axis tilts taken as zero (they move the centre by well under a millimetre). For
+    AA39's ``Tc = (0, 0.175, 0)`` and no joint translation this is ``c = -0.175 n``.
+
+    The same chain is used for both layouts (see :func:`read_heliostat`).
+    """
+    n = np.asarray(normal, np.float64)
+    theta1 = np.arctan2(-n[..., 1], n[..., 2])
+    theta2 = np.arctan2(n[..., 0], np.hypot(n[..., 1], n[..., 2]))
+    r1, r2 = _rot_e(theta1 - np.pi / 2), _rot_u(theta2)
+    t1, t2 = heliostat.joint_translations
+    tc = heliostat.concentrator_translation
+    inner = t2 + np.einsum("...ij,j->...i", r2, tc)
+    return t1 + np.einsum("...ij,...j->...i", r1, inner)

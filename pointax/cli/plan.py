@@ -1,0 +1,253 @@
+"""``pointax plan``: choose the observations of the next pointing run and predict the
+accuracy of its fit (:func:`pointax.plan_run`).
+
+    pointax plan --site LAT,LON,HEIGHT --time ISO [--terms IA,IE,...] [-n 40] [--target-rms ARCSEC]
+                 [--noise ARCSEC] [--mount altaz|xy] [--criterion i-optimal|d-optimal]
+                 [--min-elevation DEG] [--max-elevation DEG] [--az-limits=MIN,MAX] [--sun-avoid DEG]
+                 [--max-magnitude MAG] [--pressure HPA] [--skymap FILE.png] [--json]
+    pointax plan --sun --site LAT,LON,HEIGHT --time START --days 30 [--step MINUTES]
+                 [--terms full|simple] [--params alpha0=60.5,beta0=165.9] [-n 20] ...
+    pointax plan --grid [--mount altaz|xy|turntable] [--terms ...] [-n 20] ...
+
+Telescopes (default, ``--mount altaz`` or ``xy``): the candidates are the bundled
+catalogue's stars (4559 Hipparcos stars, :func:`pointax.planning.star_candidates`)
+visible at the site at ``--time`` between the elevation limits and at least
+``--sun-avoid`` degrees (default 30) from the Sun. ``--terms``: TPOINT names for
+``altaz`` (default TPOINT's eight basic terms), a family name or term names for ``xy``
+(default ``basic``). Sun trackers (``--sun``: ``--mount turntable``): the Sun's
+positions every ``--step`` minutes over ``--days`` days from ``--time``
+(:func:`pointax.planning.sun_candidates`); ``--terms full`` (the sun-vector paper's five
+parameters, default) or ``simple``; ``--params`` name=value in degrees sets where to
+linearise (the encoder zeros matter: default 0). Heliostats (``--sun --mount heliostat
+--paint DIR``): the actuator geometry of a PAINT heliostat folder
+(:func:`pointax.heliostat_model`, terms ``t1n,t1u,t2e,t2n`` by default), the candidates
+the mirror normals that send the sun to the receiver, whose direction from the mirror
+is ``--receiver AZ,EL`` (degrees) or, by default, the mean of the folder's measured
+reflected rays; readings are actuator counts. ``--grid``: an azimuth-elevation
+grid every 15 deg in azimuth and 5 deg in elevation (mechanical tests).
+
+``--az-limits=MIN,MAX`` (degrees of the axis-1 reading, e.g. ``--az-limits=-270,270``
+for a cable wrap: with ``=``, since the value starts with a minus sign) puts each target on its wrap branch and drops those outside; ``--el-limits``
+likewise for axis 2. The plan stops at ``-n`` targets or as soon as the predicted
+all-sky pointing RMS reaches ``--target-rms`` arcsec.
+
+Output: the targets in observing order (label: HIP number, time or grid index;
+azimuth and elevation in degrees; the axis readings; the predicted pointing error of
+the fitted model there, arcsec) and the predicted all-sky RMS, maximum and median-run
+RMS (20-85 deg elevation); with ``--json`` one object with the keys ``site``, ``time``,
+``model``, ``n``, ``criterion``, ``noise_arcsec``, ``n_candidates``, ``stopped``,
+``slew_deg``, ``readings_unit``, ``predicted`` (``rms_arcsec``, ``max_arcsec``,
+``median_rms_arcsec``, ``n_sky``), ``rms_after_arcsec`` and ``targets`` (``order``,
+``label``, ``azimuth_deg``, ``elevation_deg``, ``readings``, ``predicted_sigma_arcsec``,
+``time``, ``magnitude``). ``--skymap FILE.png`` also saves the predicted-accuracy sky
+map. Exit status: 0 success, 1 when ``--target-rms`` was not reached, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from .common import error, missing_input
+
+__all__ = ["add_plan_parser", "run_plan", "PLAN_MOUNTS", "PLAN_CRITERIA"]
+
+PLAN_MOUNTS = ("altaz", "xy", "turntable", "heliostat")
+"""Mounts ``pointax plan`` plans for."""
+
+PLAN_CRITERIA = ("i-optimal", "d-optimal")
+"""Design criteria: :data:`pointax.planning.CRITERIA`."""
+
+_PREFIX = "pointax plan"
+
+
+def add_plan_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``plan`` subcommand to an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "plan",
+        help="choose the observations of the next pointing run and predict the accuracy of its fit",
+        description="Choose the stars (or sun times) that pin a pointing model down best, in observing order, "
+        "with the predicted accuracy of the fit.",
+    )
+    source = p.add_mutually_exclusive_group()
+    source.add_argument("--sun", action="store_true", help="sun tracker: candidates are sun positions over --days")
+    source.add_argument("--grid", action="store_true", help="a plain azimuth-elevation grid (mechanical tests)")
+    p.add_argument("--site", metavar="LAT,LON,HEIGHT", help="site: latitude and longitude (deg, East +), height (m)")
+    p.add_argument("--time", metavar="ISO", help="UTC time of the run (stars) or of the first sun position (--sun)")
+    p.add_argument("--days", type=float, default=30.0, help="--sun: span of days (default: %(default)s)")
+    p.add_argument("--step", type=float, default=10.0, metavar="MINUTES", help="--sun: minutes between sun positions (default: %(default)s)")
+    p.add_argument("--mount", choices=list(PLAN_MOUNTS), default=None, help="mount (default: altaz; turntable with --sun)")
+    p.add_argument("--terms", default=None, help="model terms (altaz: TPOINT names, default the basic eight; xy: a family or "
+                   "term names, default basic; turntable: full or simple)")  # fmt: skip
+    p.add_argument("--paint", default=None, metavar="DIR", help="--mount heliostat: PAINT heliostat folder (geometry)")
+    p.add_argument("--receiver", default=None, metavar="AZ,EL", help="--mount heliostat: direction of the receiver, deg")
+    p.add_argument("--params", default="", help="where to linearise: name=value,... (arcsec for altaz/xy, deg for turntable)")
+    p.add_argument("-n", type=int, default=40, help="most targets (default: %(default)s)")
+    p.add_argument("--target-rms", type=float, default=None, metavar="ARCSEC", help="stop once the predicted all-sky RMS is this")
+    p.add_argument("--noise", type=float, default=2.0, metavar="ARCSEC", help="expected measurement noise per axis (default: %(default)s)")
+    p.add_argument("--criterion", choices=list(PLAN_CRITERIA), default="i-optimal", help="design criterion (default: %(default)s)")
+    p.add_argument("--min-elevation", type=float, default=None, metavar="DEG", help="lowest elevation (default 20; --sun 15)")
+    p.add_argument("--max-elevation", type=float, default=None, metavar="DEG", help="highest elevation (default 85; --sun 90)")
+    p.add_argument("--az-limits", default=None, metavar="MIN,MAX", help="axis-1 reading limits, degrees (cable wrap; write --az-limits=-270,270)")
+    p.add_argument("--el-limits", default=None, metavar="MIN,MAX", help="axis-2 reading limits, degrees (write --el-limits=MIN,MAX)")
+    p.add_argument("--flipped", action="store_true", help="the flipped (over the top) mechanical solution")
+    p.add_argument("--sun-avoid", type=float, default=30.0, metavar="DEG", help="stars: keep this far from the Sun (default: %(default)s)")
+    p.add_argument("--max-magnitude", type=float, default=None, metavar="MAG", help="stars: only this bright or brighter")
+    p.add_argument("--pressure", type=float, default=None, metavar="HPA", help="air pressure for refraction (none without it)")
+    p.add_argument("--skymap", default=None, metavar="FILE.png", help="save the predicted-accuracy sky map")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.set_defaults(run=run_plan)
+    return p
+
+
+def _floats(text: str, count: int, option: str) -> list[float]:
+    parts = [s.strip() for s in text.split(",")]
+    try:
+        values = [float(s) for s in parts]
+    except ValueError:
+        raise ValueError(f"{option}: expected {count} numbers separated by commas, got {text!r}") from None
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{option}: expected {count} finite numbers separated by commas, got {text!r}")
+    return values
+
+
+def _model(args, mount: str):
+    from .. import terms as term_library
+    from ..mount_models import AltAz, Turntable, XY
+    from .command import _parse_params
+
+    if mount == "heliostat":
+        from ..heliostat import heliostat_model
+        from ..io.load import load_run
+
+        if not args.paint:
+            raise ValueError("--mount heliostat needs --paint DIR (a PAINT heliostat folder: its actuator geometry)")
+        run = load_run(args.paint, "paint")
+        names = args.terms.replace(",", " ").split() if args.terms else None
+        model = heliostat_model(run, names) if names else heliostat_model(run)
+        args._paint_run = run
+    elif mount == "turntable":
+        model = Turntable(args.terms or "full")
+    elif mount == "xy":
+        from ..mount_models import XY_FAMILIES, xy_family
+
+        spec = (args.terms or "basic").strip()
+        if spec in XY_FAMILIES or spec == "linearized":
+            model = XY(spec)
+        else:
+            known = {t.name: t for family in XY_FAMILIES for t in xy_family(family)}
+            names = spec.replace(",", " ").split()
+            unknown = [n for n in names if n not in known]
+            if unknown:
+                raise ValueError(f"--terms: unknown X-Y terms {', '.join(unknown)}; families: {', '.join(XY_FAMILIES)}")
+            model = XY([known[n] for n in names])
+    else:
+        model = AltAz(term_library.tpoint(args.terms.replace(",", " ") if args.terms else term_library.BASIC_ALTAZ))
+    return model.set(**_parse_params(args.params, model))
+
+
+def _plan(args):
+    from ..planning import grid_candidates, plan_run, star_candidates, sun_candidates
+    from ..units import ARCSEC, DEG
+
+    mount = args.mount or ("turntable" if args.sun else "altaz")
+    if args.sun and mount not in ("turntable", "heliostat"):
+        raise ValueError(f"--sun plans sun trackers: use --mount turntable or heliostat (not {mount})")
+    if mount in ("turntable", "heliostat") and not (args.sun or (args.grid and mount == "turntable")):
+        raise ValueError(f"--mount {mount}: plan over sun positions (--sun)" + (" or a grid (--grid)" if mount == "turntable" else ""))
+    if args.n < 1:
+        raise ValueError(f"-n must be at least 1, got {args.n}")
+    if not (args.noise > 0):
+        raise ValueError(f"--noise must be positive, got {args.noise}")
+    lo = args.min_elevation if args.min_elevation is not None else (15.0 if args.sun else 20.0)
+    hi = args.max_elevation if args.max_elevation is not None else (90.0 if args.sun else 85.0)
+    site = time = None
+    if not args.grid:
+        if not args.site or not args.time:
+            raise ValueError("give --site LAT,LON,HEIGHT and --time ISO (or --grid for a plain grid)")
+        lat, lon, height = _floats(args.site, 3, "--site")
+        from ..sky import as_time, site as make_site
+
+        site = make_site(lat, lon, height)
+        time = as_time(args.time)
+    limits = None
+    if args.az_limits or args.el_limits:
+        az = tuple(v * DEG for v in _floats(args.az_limits, 2, "--az-limits")) if args.az_limits else None
+        el = tuple(v * DEG for v in _floats(args.el_limits, 2, "--el-limits")) if args.el_limits else None
+        limits = (az, el)
+    model = _model(args, mount)
+    if args.grid:
+        cand = grid_candidates()
+    elif args.sun:
+        target = None
+        if mount == "heliostat":
+            import numpy as np
+
+            from ..rotations import azel_to_enu_numpy
+
+            if args.receiver:
+                az, el = _floats(args.receiver, 2, "--receiver")
+                target = azel_to_enu_numpy(math.radians(az), math.radians(el))
+            else:
+                rays = np.asarray(args._paint_run.reflected, np.float64)
+                rays = rays[np.all(np.isfinite(rays), axis=1)]
+                if not len(rays):
+                    raise ValueError(f"{args.paint}: no reflected rays to take the receiver's direction from: give --receiver AZ,EL")
+                target = rays.mean(axis=0)
+        cand = sun_candidates(site, time, args.days, step_minutes=args.step, min_elevation_deg=lo, max_elevation_deg=hi,
+                              pressure_hpa=args.pressure, target=target)  # fmt: skip
+    else:
+        cand = star_candidates(site, time, min_elevation_deg=lo, max_elevation_deg=hi, max_magnitude=args.max_magnitude,
+                               sun_avoid_deg=args.sun_avoid, pressure_hpa=args.pressure)  # fmt: skip
+    if len(cand) == 0:
+        raise ValueError("no candidate lies within the elevation limits (and away from the Sun) at that time")
+    plan = plan_run(
+        model, cand, args.n, noise=args.noise * ARCSEC, criterion=args.criterion,
+        target_rms=None if args.target_rms is None else args.target_rms * ARCSEC, limits=limits,
+        solution="flipped" if args.flipped else "normal",
+        # (sun positions were cut by the sun's elevation; a heliostat's candidates are normals)
+        min_elevation_deg=None if args.sun else lo, max_elevation_deg=None if args.sun else hi,
+    )  # fmt: skip
+    meta = {
+        "site": None if site is None else [float(x) for x in _floats(args.site, 3, "--site")],
+        "time": None if time is None else time.isot,
+        "model": model.describe(),
+        "mount": mount,
+        "candidates": "grid" if args.grid else ("sun" if args.sun else "stars"),
+    }
+    return plan, meta
+
+
+def run_plan(args) -> int:
+    """Run ``pointax plan`` for parsed ``args``; returns the exit status (0 success, 1
+    the target RMS not reached, 2 bad input)."""
+    missing = missing_input([args.paint])
+    if missing:
+        return error(_PREFIX, missing)
+    try:
+        plan, meta = _plan(args)
+    except (ValueError, KeyError, TypeError) as err:
+        return error(_PREFIX, err)
+    if args.skymap:
+        try:
+            plan.accuracy.skymap().savefig(args.skymap, dpi=110)
+        except OSError as err:
+            return error(_PREFIX, f"{args.skymap}: {err.strerror or err}")
+    if args.json:
+        print(json.dumps({**meta, **plan.to_dict()}, indent=2))
+    else:
+        print(f"{meta['model']}; candidates: {meta['candidates']}" + (f" at {meta['time']} UTC" if meta["time"] else ""))
+        print(plan.table())
+    missed = args.target_rms is not None and plan.stopped != "target"
+    if missed and not args.json:
+        print(f"{_PREFIX}: the predicted RMS did not reach {args.target_rms}\" with {len(plan)} targets")
+    return 1 if missed else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``pointax plan`` on its own."""
+    parser = argparse.ArgumentParser(prog="pointax")
+    add_plan_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["plan", *(argv or [])])
+    return args.run(args)
