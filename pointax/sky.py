@@ -94,7 +94,9 @@ def site(
     """An observing site from WGS84 geodetic coordinates.
 
     Args:
-        latitude_deg: geodetic latitude, degrees North, in ``[-90, 90]``.
+        latitude_deg: geodetic latitude, degrees North, in ``[-90, 90]`` (or an
+            astropy Quantity / Angle in any angle unit; likewise the longitude and, in
+            length units, the height).
         longitude_deg: longitude, degrees East, in ``[-180, 360]``.
         height_m: height above the WGS84 ellipsoid, metres (GPS height, not height
             above sea level; the two differ by the geoid undulation, up to ~100 m, which
@@ -107,9 +109,9 @@ def site(
     Raises:
         ValueError: an argument is not a finite real scalar or is out of range.
     """
-    lat = _scalar("latitude_deg", latitude_deg, -90.0, 90.0)
-    lon = _scalar("longitude_deg", longitude_deg, -180.0, 360.0)
-    height = _scalar("height_m", height_m, -1e5, 1e5)
+    lat = _scalar("latitude_deg", latitude_deg, -90.0, 90.0, u.deg)
+    lon = _scalar("longitude_deg", longitude_deg, -180.0, 360.0, u.deg)
+    height = _scalar("height_m", height_m, -1e5, 1e5, u.m)
     return EarthLocation.from_geodetic(
         lon * u.deg, lat * u.deg, height * u.m, ellipsoid="WGS84"
     )
@@ -284,8 +286,14 @@ def refraction(
 # --------------------------------------------------------------------------- helpers
 
 
-def _scalar(name: str, value, lo: float, hi: float) -> float:
-    """``value`` as a float, checked to be a finite real scalar in ``[lo, hi]``."""
+def _scalar(name: str, value, lo: float, hi: float, unit=None) -> float:
+    """``value`` as a float, checked to be a finite real scalar in ``[lo, hi]``; an
+    astropy Quantity (or Angle) is converted to ``unit`` first."""
+    if unit is not None and hasattr(value, "unit"):
+        try:
+            value = value.to_value(unit)
+        except u.UnitConversionError:
+            raise ValueError(f"{name} must be in units of {unit}, got {value!r}") from None
     if np.ndim(value) != 0 or isinstance(value, bool | np.bool_):
         raise ValueError(f"{name} must be a real scalar, got {value!r}")
     try:

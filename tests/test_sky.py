@@ -99,6 +99,20 @@ def test_site_is_wgs84_geodetic():
     assert sky.site(-90, -180).to_geodetic().lat.deg == pytest.approx(-90.0)
 
 
+def test_site_takes_quantities_in_their_units():
+    from astropy.coordinates import Angle
+
+    loc = sky.site(Angle("50d54m46.8s"), 0.11149 * u.rad, 0.088 * u.km)
+    lon, lat, height = loc.to_geodetic("WGS84")
+    assert lat.deg == pytest.approx(50 + 54 / 60 + 46.8 / 3600, abs=1e-12)
+    assert lon.deg == pytest.approx(np.degrees(0.11149), abs=1e-12)
+    assert height.to_value(u.m) == pytest.approx(88.0, abs=1e-6)
+    with pytest.raises(ValueError, match="height_m must be in units of m"):
+        sky.site(10.0, 5.0, 3 * u.deg)
+    with pytest.raises(ValueError, match=r"latitude_deg must lie in \[-90, 90\]"):
+        sky.site(2 * u.rad, 5.0)
+
+
 @pytest.mark.parametrize(
     "args, name",
     [
