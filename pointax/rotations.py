@@ -34,6 +34,7 @@ __all__ = [
     "small_tilt",
     "azel_to_enu",
     "azel_to_enu_numpy",
+    "hadec_to_enu_numpy",
     "enu_to_azel",
     "azel_trig",
     "tangent_basis",
@@ -115,6 +116,22 @@ def azel_to_enu_numpy(az, el) -> np.ndarray:
     az, el = np.asarray(az, np.float64), np.asarray(el, np.float64)
     cos_el = np.cos(el)
     return np.stack([np.sin(az) * cos_el, np.cos(az) * cos_el, np.sin(el)], axis=-1)
+
+
+def hadec_to_enu_numpy(ha, dec, latitude: float) -> np.ndarray:
+    """East-North-Up unit vectors of hour angle ``ha`` (positive West) and declination
+    ``dec`` at ``latitude`` (radians; :class:`pointax.EquatorialMount`'s formulas), NumPy
+    float64, for the readers of equatorial runs."""
+    ha, dec = np.asarray(ha, np.float64), np.asarray(dec, np.float64)
+    s, c = np.sin(latitude), np.cos(latitude)
+    return np.stack(
+        [
+            -np.cos(dec) * np.sin(ha),
+            c * np.sin(dec) - s * np.cos(dec) * np.cos(ha),
+            s * np.sin(dec) + c * np.cos(dec) * np.cos(ha),
+        ],
+        axis=-1,
+    )
 
 
 def _safe_hypot(x: Array, y: Array) -> Array:

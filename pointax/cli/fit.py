@@ -288,13 +288,11 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
         model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix), residual_form=args.residuals)
     else:
         run = load_run(args.data, "tpoint", azimuth=args.azimuth, mount=args.mount)
-        if run.mount == "equatorial":
-            if args.azimuth != "N-E":
-                raise ValueError(f"{args.data}: --azimuth applies to alt-az runs; this run is equatorial")
-            spec = args.terms if args.terms is not None else term_library.BASIC_EQUATORIAL
-            terms = term_library.tpoint(spec, form=args.form, mount="equatorial", latitude=run.latitude)
-        else:
-            terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
+        if run.mount == "equatorial" and args.azimuth != "N-E":
+            raise ValueError(f"{args.data}: --azimuth applies to alt-az runs; this run is equatorial")
+        default = term_library.BASIC_EQUATORIAL if run.mount == "equatorial" else term_library.BASIC_ALTAZ
+        spec = args.terms if args.terms is not None else default
+        terms = term_library.tpoint(spec, form=args.form, **run.term_options())
         model = run.model(terms, fixed=term_library.names(args.fix), residual_form=args.residuals)
     options = FitOptions(
         solver=args.solver,

@@ -115,7 +115,7 @@ import numpy as np
 
 from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
-from ..rotations import azel_to_enu_numpy
+from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
 from ..terms.gpoint import (
     GPOINT_ALTAZ_TERMS,
     GPOINT_GEM_TERMS,
@@ -410,20 +410,6 @@ def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:
     )
 
 
-def _hadec_to_enu(ha, dec, latitude):
-    """East-North-Up unit vectors of hour angle ``ha`` (positive West) and declination
-    ``dec`` at ``latitude`` (radians; :class:`pointax.EquatorialMount`'s formulas)."""
-    s, c = math.sin(latitude), math.cos(latitude)
-    return np.stack(
-        [
-            -np.cos(dec) * np.sin(ha),
-            c * np.sin(dec) - s * np.cos(dec) * np.cos(ha),
-            s * np.sin(dec) + c * np.cos(dec) * np.cos(ha),
-        ],
-        axis=-1,
-    )
-
-
 def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
     """The GEM part of :func:`parse_gpoint`: ``v`` holds fields 2..9 of each row."""
     _, lst, a_ra, a_dec, ax_ra, ax_dec, r_ra, r_dec = v.T
@@ -459,7 +445,7 @@ def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
     lat = latitude_deg * DEG
     # The real position on the sky -> East-North-Up.
     real_ha, real_dec = (lst - r_ra) * DEG, r_dec * DEG
-    target = _hadec_to_enu(real_ha, real_dec, lat)
+    target = hadec_to_enu_numpy(real_ha, real_dec, lat)
     elevation = np.degrees(np.arcsin(np.clip(target[:, 2], -1.0, 1.0)))
     for k, lineno in enumerate(line_numbers):
         check_observed_elevation(
@@ -476,7 +462,7 @@ def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
     flip_dec = np.where(a_dec > 90.0, 180.0 - r_dec, np.where(a_dec < -90.0, -180.0 - r_dec, r_dec))
     encoder = np.stack([lst - a_ra, a_dec], axis=-1) * DEG
     observed = np.stack([lst - flip_ra, flip_dec], axis=-1) * DEG
-    raw = _hadec_to_enu(encoder[:, 0], encoder[:, 1], lat)
+    raw = hadec_to_enu_numpy(encoder[:, 0], encoder[:, 1], lat)
     far = np.degrees(np.arccos(np.clip(np.sum(raw * target, axis=-1), -1.0, 1.0)))
     bad = [(int(line_numbers[k]), float(far[k])) for k in np.flatnonzero(far > FAR_DEG)]
     if bad:

@@ -55,7 +55,7 @@ import numpy as np
 
 from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
-from ..rotations import azel_to_enu_numpy
+from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
 from ..units import ARCSEC, DEG
 from .errors import FileFormatError
 from .errors import warn_input
@@ -218,6 +218,11 @@ class TpointRun:
         """The site's latitude, radians (from the run-parameters record)."""
         return self.parameters.latitude
 
+    def term_options(self) -> dict:
+        """How TPOINT term names resolve for this run (keywords of
+        :func:`pointax.terms.tpoint`): ``{}`` alt-az, the mount and latitude equatorial."""
+        return {"mount": "equatorial", "latitude": self.latitude} if self.mount == "equatorial" else {}
+
     def model(self, terms=(), fixed=(), residual_form: str = "sky"):
         """The model of this run's mount with ``terms``: :func:`pointax.AltAz` in the
         run's azimuth convention, or :func:`pointax.Equatorial` at its latitude."""
@@ -372,32 +377,37 @@ def _record_values(path: str, lineno: int, tokens: list[str], layout: tuple[Grou
 
 
 def _field_of(layout: tuple[Group, ...], index: int) -> str:
+    """``field N (name)`` of group ``index`` of a record of ``layout``."""
     first = 1 + sum(g.width for g in layout[:index])
-    return f"observation record: field {first} ({layout[index].name})"
+    return f"field {first} ({layout[index].name})"
+
+
+def _where(layout: tuple[Group, ...], index: int) -> str:
+    return f"observation record: {_field_of(layout, index)}"
 
 
 def _check_altaz(path: str, lineno: int, v: list[float], layout) -> None:
     if not -90.0 <= v[1] <= 90.0:
-        raise TpointFormatError(path, lineno, f"{_field_of(layout, 1)} {v[1]:g} is outside -90..90 deg")
-    check_azimuth(TpointFormatError, path, lineno, v[0], _field_of(layout, 0).replace("observation record: ", ""))
-    check_azimuth(TpointFormatError, path, lineno, v[2], _field_of(layout, 2).replace("observation record: ", ""))
-    check_observed_elevation(TpointFormatError, path, lineno, v[1], _field_of(layout, 1).replace("observation record: ", ""))
+        raise TpointFormatError(path, lineno, f"{_where(layout, 1)} {v[1]:g} is outside -90..90 deg")
+    check_azimuth(TpointFormatError, path, lineno, v[0], _where(layout, 0))
+    check_azimuth(TpointFormatError, path, lineno, v[2], _where(layout, 2))
+    check_observed_elevation(TpointFormatError, path, lineno, v[1], _where(layout, 1))
     if not -90.0 <= v[3] <= 180.0:
-        raise TpointFormatError(path, lineno, f"{_field_of(layout, 3)} {v[3]:g} is outside -90..180 deg")
+        raise TpointFormatError(path, lineno, f"{_where(layout, 3)} {v[3]:g} is outside -90..180 deg")
 
 
 def _check_equatorial(path: str, lineno: int, v: list[float], layout) -> None:
     for k in (0, 2):
         if not -24.0 <= v[k] <= 24.0:
-            raise TpointFormatError(path, lineno, f"{_field_of(layout, k)} {v[k]:g} h is outside -24..24 h")
+            raise TpointFormatError(path, lineno, f"{_where(layout, k)} {v[k]:g} h is outside -24..24 h")
     if not -90.0 <= v[1] <= 90.0:
-        raise TpointFormatError(path, lineno, f"{_field_of(layout, 1)} {v[1]:g} deg is outside -90..90")
+        raise TpointFormatError(path, lineno, f"{_where(layout, 1)} {v[1]:g} deg is outside -90..90")
     if not -180.0 <= v[3] <= 180.0:
         raise TpointFormatError(
-            path, lineno, f"{_field_of(layout, 3)} {v[3]:g} deg is outside -180..180 (beyond +-90: the other side of the pier)"
+            path, lineno, f"{_where(layout, 3)} {v[3]:g} deg is outside -180..180 (beyond +-90: the other side of the pier)"
         )
     if len(layout) > 4 and not 0.0 <= v[4] <= 24.0:
-        raise TpointFormatError(path, lineno, f"{_field_of(layout, 4)} {v[4]:g} h is outside 0..24 h")
+        raise TpointFormatError(path, lineno, f"{_where(layout, 4)} {v[4]:g} h is outside 0..24 h")
 
 
 def parse_tpoint(
@@ -494,7 +504,7 @@ def _radian_looking_columns(kind: str, layout, values: np.ndarray) -> dict:
     else:  # declinations only: an RA in hours may well lie within 2 pi
         limits = (None, math.pi / 2, None, math.pi)
     return {
-        _field_of(layout, k).replace("observation record: ", ""): (values[:, k], limit)
+        _field_of(layout, k): (values[:, k], limit)
         for k, limit in enumerate(limits)
         if limit is not None
     }
@@ -540,22 +550,14 @@ def _equatorial_run(values: np.ndarray, layout, params: RunParameters, constants
     observed = np.column_stack([wrap(ha_star), dec_star])
     encoder = np.column_stack([wrap(ha_tel), dec_tel])
     lat = params.latitude
-    h, d = observed[:, 0], observed[:, 1]
-    enu = np.stack(
-        [
-            -np.cos(d) * np.sin(h),
-            math.cos(lat) * np.sin(d) - math.sin(lat) * np.cos(d) * np.cos(h),
-            math.sin(lat) * np.sin(d) + math.cos(lat) * np.cos(d) * np.cos(h),
-        ],
-        axis=-1,
-    )
+    enu = hadec_to_enu_numpy(observed[:, 0], observed[:, 1], lat)
     path, lines = common["path"], common["lines"]
     elevation = np.degrees(np.arcsin(np.clip(enu[:, 2], -1.0, 1.0)))
     low = np.flatnonzero(elevation < HORIZON_DEG)
     if low.size:
         k = int(low[0])
         raise TpointFormatError(
-            path, int(lines[k]), f"{_field_of(layout, 0)}: the star is at elevation {elevation[k]:.2f} deg, below the "
+            path, int(lines[k]), f"{_where(layout, 0)}: the star is at elevation {elevation[k]:.2f} deg, below the "
             f"horizon at latitude {math.degrees(lat):.4f} deg (wrong hour angle, sidereal time or latitude?)"
         )
     target = refract(enu, *constants)

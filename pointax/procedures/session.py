@@ -111,9 +111,7 @@ class Session:
     def term_options(self) -> dict[str, Any]:
         """How term names resolve for the run at hand: ``{}`` for alt-az (and before
         INDAT), the mount and latitude for an equatorial run (:func:`pointax.terms.tpoint`)."""
-        if self.run is not None and getattr(self.run, "mount", "altaz") == "equatorial":
-            return {"mount": "equatorial", "latitude": self.run.latitude}
-        return {}
+        return {} if self.run is None else self.run.term_options()
 
     def weights(self) -> np.ndarray:
         """``(n,)`` the run's weights with masked observations at 0."""
