@@ -8,10 +8,13 @@ program is exported (:mod:`jax.export`) and serialised beside that cache; a late
 options, data shapes and software loads it and hands it to XLA, whose compiled code the
 compilation cache then supplies.
 
-An entry's key is a hash of the program's name, the pytree structure (terms, mount,
-static configuration) and shapes of its inputs, the fit options, and the versions of
-pointax (the hash of its source files), JAX, jaxlib, equinox, lineax and optimistix: a
-change of any of them writes a new entry, never reads a stale one. Clear the cache with
+An entry's key is a hash of the program's name, the pytree structure (every node's
+class by module and qualified name, its static configuration) and shapes of its inputs,
+the fit options, and the versions of pointax (the hash of its source files), JAX,
+jaxlib, equinox, lineax and optimistix: a change of any of them writes a new entry,
+never reads a stale one. Only programs built of pointax's own classes go to disk: the
+source of a user's term class is not part of the key, so a fit with one is traced once
+per process (an edited term must never run its old program). Clear the cache with
 :func:`clear` (or delete the folder, ``programs`` inside ``$POINTAX_JAX_CACHE``, by
 default ``~/.cache/pointax/jax/programs``).
 
@@ -43,7 +46,7 @@ STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0}
 _DIRECTORY: Path | None = None
 _MEMORY: dict = {}
 _LOCK = threading.Lock()
-_FORMAT = 1
+_FORMAT = 2  # 1 named classes by their bare name: the linear and rigorous IA shared entries
 
 
 def set_directory(path: str | os.PathLike | None) -> None:
@@ -84,14 +87,17 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> o
     """
     leaves, in_tree = jax.tree.flatten(args)
     avals = [jax.ShapeDtypeStruct(np.shape(x), _dtype(x)) for x in leaves]
-    key = _key(name, in_tree, avals, static)
+    # In memory, the tree itself is the key: it compares classes by identity (two term
+    # classes may share a name: the linear and rigorous IA do).
+    memory_key = (name, in_tree, tuple((a.shape, a.dtype) for a in avals), static, jax.config.jax_enable_x64)
     with _LOCK:
-        entry = _MEMORY.get(key)
+        entry = _MEMORY.get(memory_key)
     if entry is None:
         expected = structure(*args, static)
-        entry = _load(key, expected) or _export(key, fn, in_tree, avals, static, expected)
+        key = _key(name, in_tree, avals, static)
+        entry = (key is not None and _load(key, expected)) or _export(key, fn, in_tree, avals, static, expected)
         with _LOCK:
-            _MEMORY[key] = entry
+            _MEMORY[memory_key] = entry
     else:
         STATS["memory"] += 1
     jitted, out_tree = entry
@@ -103,10 +109,39 @@ def _dtype(x):
     return x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype
 
 
-def _key(name, in_tree, avals, static) -> str:
-    parts = [str(_FORMAT), name, _versions(), str(in_tree), repr(static), str(jax.config.jax_enable_x64)]
+def _key(name, in_tree, avals, static) -> str | None:
+    """The key of the program on disk, or None when it must not be stored
+    (:func:`_describe`)."""
+    tree = _describe(in_tree)
+    if tree is None:
+        return None
+    parts = [str(_FORMAT), name, _versions(), tree, repr(static), str(jax.config.jax_enable_x64)]
     parts += [f"{a.shape}{a.dtype}" for a in avals]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+_STORABLE_MODULES = ("pointax", "builtins", "collections")
+
+
+def _describe(treedef) -> str | None:
+    """``treedef`` as text that names every node's class by module and qualified name
+    with its static data (``str(treedef)`` names classes by their bare name only), or
+    None when the program must not be stored: a class from outside pointax (its source
+    is not in the key), or static data whose text does not identify it (an object's
+    address, a NumPy array's summary)."""
+    node = treedef.node_data()
+    if node is None:
+        return "*"
+    kind, aux = node
+    if kind.__module__.split(".")[0] not in _STORABLE_MODULES or "<locals>" in kind.__qualname__:
+        return None
+    static = repr(aux)
+    if " at 0x" in static or "..." in static:
+        return None
+    children = [_describe(child) for child in treedef.children()]
+    if any(c is None for c in children):
+        return None
+    return f"{kind.__module__}.{kind.__qualname__}[{static}]({', '.join(children)})"
 
 
 _VERSIONS: list = []
@@ -129,8 +164,8 @@ def _versions() -> str:
     return _VERSIONS[0]
 
 
-def _path(key: str) -> Path | None:
-    return None if _DIRECTORY is None else _DIRECTORY / f"{key}.program"
+def _path(key: str | None) -> Path | None:
+    return None if _DIRECTORY is None or key is None else _DIRECTORY / f"{key}.program"
 
 
 def _load(key: str, out_tree):
