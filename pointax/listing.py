@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .masking import all_residuals
+from .masking import fit_residuals
 from .units import ARCSEC, DEG
 
 __all__ = ["observation_entries", "format_listing", "LISTING_KEYS", "EQUATORIAL_KEYS"]
@@ -57,7 +57,7 @@ def _columns(run, result, masked, residuals=None) -> dict[str, np.ndarray]:
     masked = np.zeros(n, bool) if masked is None else np.asarray(masked, bool)
     if masked.shape != (n,):
         raise ValueError(f"masked must have shape ({n},), got {masked.shape}")
-    r = (all_residuals(result.model, run.observations) if residuals is None else np.asarray(residuals, np.float64)) / ARCSEC
+    r = (fit_residuals(result, run.observations) if residuals is None else np.asarray(residuals, np.float64)) / ARCSEC
     lines = getattr(run, "lines", None)
     return {
         "row": np.arange(1, n + 1),
@@ -85,7 +85,8 @@ def observation_entries(run, result, masked=None, residuals=None) -> list[dict[s
         result: the :class:`pointax.FitResult` of a fit to ``run``.
         masked: optional ``(n,)`` bool, the observations the fit was told to leave out.
         residuals: optional ``(n, 2)`` residuals (radians) of ``result.model`` at every
-            observation, when the caller has them (default: evaluated here).
+            observation, when the caller has them (default: the fit's own, and those of
+            the masked observations evaluated, :func:`pointax.masking.fit_residuals`).
 
     Returns:
         Dicts with :data:`LISTING_KEYS`: ``row`` (1-based, TPOINT's numbering),

@@ -27,7 +27,7 @@ import numpy as np
 from ._x64 import float64
 from .units import ARCSEC
 
-__all__ = ["parse_rows", "format_rows", "all_residuals", "on_sky", "mask_above"]
+__all__ = ["parse_rows", "format_rows", "all_residuals", "fit_residuals", "on_sky", "mask_above"]
 
 
 def parse_rows(spec: str, n: int, option: str = "rows") -> np.ndarray:
@@ -84,11 +84,38 @@ def all_residuals(model, observations) -> np.ndarray:
     """``(n, 2)`` residuals of ``model`` at every observation, masked or not:
     observed minus model, (cross-elevation, elevation) radians, in the model's
     residual form (:func:`pointax.residuals`), evaluated in float64."""
-    from .fitting import residuals
     from .observations import Observations
 
     obs = Observations(observations.encoder, observations.target, None, observations.convention)
-    return np.asarray(residuals(model, obs), np.float64)
+    return np.asarray(_residuals_compiled()(model, obs), np.float64)
+
+
+_COMPILED: list = []
+
+
+def _residuals_compiled():
+    """:func:`pointax.residuals`, compiled (op by op, the vmap over observations
+    compiled some 70 small programs: 4 s of every ``pointax fit --json``)."""
+    if not _COMPILED:
+        import equinox as eqx
+
+        from .fitting import residuals
+
+        _COMPILED.append(eqx.filter_jit(residuals))
+    return _COMPILED[0]
+
+
+def fit_residuals(result, observations) -> np.ndarray:
+    """``(n, 2)`` residuals of ``result.model`` at every observation of the run it was
+    fitted to, radians: the fit's own where it had them (every observation with a
+    positive weight, outliers included), :func:`all_residuals` for the masked ones."""
+    r = np.array(result.residuals, np.float64)
+    given = np.asarray(result.used, bool) | np.asarray(result.outliers, bool)
+    if r.shape != (len(given), 2) or len(given) != len(observations.encoder):
+        raise ValueError(f"the fit has residuals for {len(given)} observations, the run holds {len(observations.encoder)}")
+    if not given.all():
+        r[~given] = all_residuals(result.model, observations)[~given]
+    return r
 
 
 def on_sky(residuals) -> np.ndarray:
