@@ -47,7 +47,7 @@ from .model import Model
 from .rotations import angle_between, tangent_offset
 from .units import angles_in_radians, directions_enu, is_quantity
 
-__all__ = ["LIMIT_TURNS", "OPPOSITE_TOL", "SOLUTIONS", "ZENITH_TOL", "Command", "command", "command_reflector", "reflect_normal"]
+__all__ = ["LIMIT_TURNS", "OPPOSITE_TOL", "SOLUTIONS", "ZENITH_TOL", "Command", "command", "command_reflector", "limits_array", "reflect_normal"]
 
 SOLUTIONS = ("nearest", "normal", "flipped")
 """Values of ``command(..., solution=...)``."""
@@ -343,7 +343,7 @@ def _limit_value(x, axis: int, end: str) -> float:
     return value
 
 
-def _limits_array(limits) -> Array:
+def limits_array(limits) -> Array:
     """``((lo1, hi1), (lo2, hi2))`` with None for "no limit" -> ``(2, 2)`` float64.
 
     Raises:
@@ -442,7 +442,7 @@ def command(
         if near.shape[-1:] != (2,):
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
         near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
-    lim = _limits_array(limits)
+    lim = limits_array(limits)
     # Parameters as arrays, so that jit traces them instead of baking Python floats in
     # (one compilation for every set of values).
     model = model.with_values(model.values())

@@ -152,6 +152,7 @@ def calibrate_heliostat(
     max_steps: int = 256,
     fixed: Iterable[str] = (),
     focal_spot: str = "HeliOS",
+    progress: bool = False,
 ) -> HeliostatCalibration:
     """Calibrate one heliostat on its PAINT samples and cross-check it.
 
@@ -165,6 +166,8 @@ def calibrate_heliostat(
         max_steps: solver step limit of each fit.
         fixed: parameters held at 0 (their nominal value).
         focal_spot: focal-spot method when ``run`` is a folder.
+        progress: a progress bar of the leave-one-out folds on standard error when it
+            is a terminal.
 
     Returns:
         :class:`HeliostatCalibration`: before, after and leave-one-out errors of every
@@ -176,7 +179,7 @@ def calibrate_heliostat(
     obs = run.observations
     options = {"loss": loss, "reject": reject, "solver": solver, "max_steps": max_steps}
     result = fit(model, obs, **options)
-    loo = leave_one_out(model, obs, **options)
+    loo = leave_one_out(model, obs, **options, progress=progress)
     return HeliostatCalibration(
         sample_ids=tuple(run.sample_ids),
         result=result,

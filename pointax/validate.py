@@ -15,6 +15,7 @@ from .fitting.result import FitResult
 from .fitting.solo import fit_model, options_from, prepare
 from .model import Model
 from .observations import Observations
+from .progress import progress_bar
 from .rotations import offset_angle
 
 __all__ = ["leave_one_out", "LeaveOneOut"]
@@ -45,15 +46,26 @@ class LeaveOneOut(eqx.Module):
         return float(np.sqrt(np.mean(errors[keep] ** 2))) if keep.any() else float("nan")
 
 
+_BARS: list = []  # the progress bar of the leave-one-out running now, if any
+
+
+def _fold_done(_=None) -> None:
+    if _BARS:
+        _BARS[-1].update()
+
+
 @eqx.filter_jit
-def _leave_one_out(model, obs, options: FitOptions):
+def _leave_one_out(model, obs, options: FitOptions, ticks: bool = False):
     n = obs.weight.shape[0]
     masks = 1.0 - jnp.eye(n, dtype=obs.weight.dtype)
     taking_part = obs.weight > 0
 
     def one_fold(mask):
         fold_obs = eqx.tree_at(lambda o: o.weight, obs, obs.weight * mask)
-        return fit_model(model, fold_obs, options)
+        fold = fit_model(model, fold_obs, options)
+        if ticks:  # a host callback per fold moves the bar while the compiled loop runs
+            jax.debug.callback(_fold_done, fold.iterations)
+        return fold
 
     # lax.map rather than vmap: the folds run one after another in one compiled loop.
     # Compiling a single fit's body is 3x faster than compiling it batched (7 s
@@ -82,6 +94,7 @@ def leave_one_out(
     loss_scale: float | None = None,
     reject: float = 3.0,
     options: FitOptions | None = None,
+    progress: bool = False,
 ) -> LeaveOneOut:
     """Fit ``model`` once per observation with that observation left out, and predict it.
 
@@ -92,6 +105,9 @@ def leave_one_out(
     Args:
         model: the model to fit (its current values are every fold's start).
         data: :class:`pointax.Observations` or a run with ``.observations``.
+        progress: show a progress bar of the folds on standard error when it is a
+            terminal (:func:`pointax.progress.progress_bar`; the program it runs is
+            compiled apart from the silent one's).
 
     Returns:
         :class:`LeaveOneOut` with each observation's out-of-sample error.
@@ -114,6 +130,14 @@ def leave_one_out(
             f"{n_free} free parameters: no fold could estimate a sigma (each would be 0); give more than "
             f"{n_free // 2 + 1} observations or fix parameters"
         )
-    offsets, folds = _leave_one_out(model, obs, options)
+    bar = progress_bar(len(obs.weight), "leave-one-out", "fold", enabled=progress)
+    _BARS.append(bar)
+    try:
+        offsets, folds = _leave_one_out(model, obs, options, bar.active)
+        jax.block_until_ready(folds.converged)
+        jax.effects_barrier()  # every fold's callback has run
+    finally:
+        _BARS.remove(bar)
+        bar.close()
     errors = offset_angle(offsets)
     return LeaveOneOut(offsets=offsets, errors=errors, converged=folds.converged, folds=folds)

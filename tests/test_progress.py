@@ -89,3 +89,23 @@ def test_compare_counts_every_fit_of_every_fold(monkeypatch):
     monkeypatch.setattr(sys, "stderr", silent)
     px.compare(families, run.observations, folds=2, progress=True)
     assert silent.getvalue() == ""
+
+
+def test_leave_one_out_counts_its_folds(monkeypatch):
+    """Every fold of the compiled loop moves the bar once, on a terminal only; the
+    results equal the silent run's (the bar changes nothing computed)."""
+    import numpy as np
+
+    import pointax as px
+
+    run = px.io.read_tpoint(MMT_DAT, azimuth="S-E")
+    model = px.AltAz(px.terms.tpoint("IA IE CA"), azimuth="S-E")
+    tty = Terminal()
+    monkeypatch.setattr(sys, "stderr", tty)
+    drawn = px.leave_one_out(model, run, progress=True)
+    assert re.search(r"leave-one-out: .*80/80", tty.getvalue())
+    silent = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", silent)
+    quiet = px.leave_one_out(model, run, progress=True)
+    assert silent.getvalue() == ""
+    np.testing.assert_array_equal(np.asarray(drawn.errors), np.asarray(quiet.errors))

@@ -12,7 +12,7 @@ from pathlib import Path
 from . import choices
 from .common import error, missing_input, os_error_text
 
-__all__ = ["add_command_parser", "run_command", "read_directions"]
+__all__ = ["add_command_parser", "run_command", "read_directions", "parse_params"]
 
 _PREFIX = "pointax"
 
@@ -93,8 +93,13 @@ def read_directions(path: str, columns: int) -> list[list[float]]:
     return rows
 
 
-def _parse_params(spec: str, model) -> dict:
-    """``name=value`` pairs (display units) to radians for ``model.set``."""
+def parse_params(spec: str, model) -> dict:
+    """``--params`` text, ``name=value`` pairs separated by commas (each value in its
+    parameter's display unit), as ``{name: internal value}`` for ``model.set``.
+
+    Raises:
+        ValueError: an item without ``=``, a name the model lacks, or a value that is not
+            a number (the message names ``--params``)."""
     from ..units import UNITS
 
     units = {p.name: p.unit for p in model.parameters}
@@ -134,7 +139,7 @@ def _command_model(args):
         else:
             model = AltAz(term_library.tpoint(args.terms or term_library.BASIC_ALTAZ, form=args.form), azimuth=args.azimuth)
         default_limits = None
-    given = _parse_params(args.params, model)
+    given = parse_params(args.params, model)
     if not args.model and not given:
         warn_input(
             "--model",

@@ -134,6 +134,9 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         "(median residual norm / 1.1774) and leave them out of the final least-squares fit "
         "(default 3 with a robust --loss; alone it implies --loss cauchy)",
     )
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress bar (paint: the leave-one-out folds; drawn only on a terminal)"
+    )
     return p
 
 
@@ -398,7 +401,10 @@ def _fit_paint(args, loss: str) -> FitOutcome:
     terms = args.terms if args.terms is not None else choices.HELIOSTAT_DEFAULT
     fixed = [name.strip() for name in args.fix.split(",") if name.strip()]
     reject = {} if args.reject is None else {"reject": args.reject}
-    cal = calibrate_heliostat(run, terms, loss=loss, solver=args.solver, max_steps=args.max_steps, fixed=fixed, **reject)
+    cal = calibrate_heliostat(
+        run, terms, loss=loss, solver=args.solver, max_steps=args.max_steps, fixed=fixed,
+        progress=not args.quiet, **reject,
+    )  # fmt: skip
     return FitOutcome(
         fmt="paint", run=run, model=cal.result.model, result=cal.result, observations=getattr(run, "observations", None),
         calibration=cal,

@@ -115,7 +115,7 @@ def _floats(text: str, count: int, option: str) -> list[float]:
 def _model(args, mount: str):
     from .. import terms as term_library
     from ..mount_models import AltAz, Turntable, XY
-    from .command import _parse_params
+    from .command import parse_params
 
     if mount == "heliostat":
         from ..heliostat import heliostat_model
@@ -144,7 +144,7 @@ def _model(args, mount: str):
             model = XY([known[n] for n in names])
     else:
         model = AltAz(term_library.tpoint(args.terms.replace(",", " ") if args.terms else term_library.BASIC_ALTAZ))
-    return model.set(**_parse_params(args.params, model))
+    return model.set(**parse_params(args.params, model))
 
 
 def _plan(args):

@@ -130,9 +130,9 @@ def reading_limits_ok(model: Model, readings: np.ndarray, limits) -> tuple[np.nd
     alt-az cable wrap of +-270 deg puts azimuth 300 deg at -60 deg); axis 2 is only
     checked. Returns ``(readings, inside)``.
     """
-    from ..command import _limits_array
+    from ..command import limits_array
 
-    lim = np.asarray(_limits_array(limits))
+    lim = np.asarray(limits_array(limits))
     r = np.array(readings, np.float64, copy=True)
     lo, hi = lim[:, 0], lim[:, 1]
     if model.mount.convention not in COUNTED_READINGS and (np.isfinite(lo[0]) or np.isfinite(hi[0])):

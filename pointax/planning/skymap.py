@@ -15,7 +15,7 @@ def accuracy_skymap(accuracy, *, resolution_deg=2.0, min_elevation_deg=20.0, max
     contours over ``min..max`` elevation, with the observations as dots. Returns the
     Figure."""
     from ..plots._mpl import new_figure
-    from ..plots.skymap import _grid, map_positions
+    from ..plots.skymap import draw_map_grid, map_positions
     from .candidates import directions_azel
 
     from ..rotations import azel_to_enu_numpy
@@ -33,7 +33,7 @@ def accuracy_skymap(accuracy, *, resolution_deg=2.0, min_elevation_deg=20.0, max
     x, y = xy[:, 0].reshape(a.shape), xy[:, 1].reshape(a.shape)
     mesh = ax.pcolormesh(x, y, sigma.reshape(a.shape), shading="gouraud", cmap="viridis", gid="accuracy")
     fig.colorbar(mesh, ax=ax, shrink=0.8, label="predicted pointing error (RMS, arcsec)")
-    _grid(ax)
+    draw_map_grid(ax)
     if accuracy.observations is not None and len(accuracy.observations):
         oaz, oel = directions_azel(accuracy.observations)
         pos = map_positions(np.degrees(np.stack([oaz, oel], axis=-1)))

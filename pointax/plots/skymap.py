@@ -23,7 +23,7 @@ import numpy as np
 from ._mpl import COLORS, LABELS, MARKERS, new_figure
 from .data import ResidualData, residual_data
 
-__all__ = ["map_positions", "map_vectors", "draw_skymap", "skymap_figure", "nice_length"]
+__all__ = ["map_positions", "map_vectors", "draw_skymap", "skymap_figure", "nice_length", "draw_map_grid"]
 
 
 def map_positions(azel_deg: np.ndarray) -> np.ndarray:
@@ -57,7 +57,10 @@ def nice_length(values: np.ndarray) -> float:
     return 10.0 * power  # pragma: no cover
 
 
-def _grid(ax) -> None:
+def draw_map_grid(ax) -> None:
+    """Draw the map's frame on ``ax``: elevation circles at 60, 30 and 0 deg (zenith
+    distance 30, 60, 90), azimuth spokes every 45 deg, the N/E/S/W labels; equal aspect,
+    no ticks (artists' gid ``'grid'``)."""
     t = np.linspace(0.0, 2 * np.pi, 361)
     for z in (30.0, 60.0, 90.0):
         ax.plot(z * np.sin(t), z * np.cos(t), color="0.75", linewidth=0.8 if z == 90 else 0.5, gid="grid")
@@ -83,7 +86,7 @@ def draw_skymap(ax, data: ResidualData, *, arrow_deg: float = 12.0, legend: bool
     """Draw the sky map on ``ax``. The key arrow (``arrow_deg`` degrees of map long)
     is a round residual length near the 90th percentile of the used observations'.
     Returns ``{'scale': units per map degree, 'key': key length in the unit}``."""
-    _grid(ax)
+    draw_map_grid(ax)
     pos = map_positions(data.azel)
     vec = map_vectors(data.azel, data.sky)
     ref = np.hypot(vec[data.used, 0], vec[data.used, 1]) if data.used.any() else np.hypot(vec[:, 0], vec[:, 1])
