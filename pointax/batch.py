@@ -36,6 +36,7 @@ from .fitting.residuals import check_convention
 from .fitting.result import FitResult, too_few_residuals
 from .fitting.solo import fit_model, options_from
 from .model import Model
+from .mounts import SphericalMount
 from .normal_equations import CholeskyGaussNewton
 from .terms.base import Term
 from .observations import Observations
@@ -45,6 +46,7 @@ from .site import (
     observed_point,
     residual_function,
     site_geometry,
+    site_residuals,
     with_sky_basis,
 )
 
@@ -142,14 +144,14 @@ def start_values(model: Model, n_sites: int, values, what: str = "free parameter
     return values
 
 
-def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float):
+def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float, chords: int = 0):
     """A chunk of sites (``y0 (S, M)``, ``data`` with a leading site axis): exactly
     ``steps`` optimistix Gauss-Newton steps for every site (no early exit: under ``vmap``
     every site would run as long as the slowest anyway) with the structured residuals
     of :mod:`pointax.site` and the :class:`NormalCholesky` solver
     (:class:`pointax.normal_equations.CholeskyGaussNewton`, which keeps the last Cholesky
     factor for the statistics), then the statistics
-    (:func:`_finish`). Returns the batched ``(FitResult, suspect)``.
+    (:func:`_finish`, with ``chords`` chord steps). Returns the batched ``(FitResult, suspect)``.
 
     The loop runs over the whole chunk and ``vmap`` acts inside it: vmapping the loop
     instead made JAX batch its body twice while tracing (once more for every carried
@@ -185,13 +187,22 @@ def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float,
         return jax.vmap(one_step)(*carry, data)
 
     y, dynamic = jax.lax.fori_loop(0, steps, body, (y0, dynamic))
-    finish = lambda y, dynamic, d: _finish(model, y, eqx.combine(dynamic, static), d, steps, rtol, atol)  # noqa: E731
+    finish = lambda y, dynamic, d: _finish(model, y, eqx.combine(dynamic, static), d, steps, rtol, atol, chords)  # noqa: E731
     return jax.vmap(finish)(y, dynamic, data)
 
 
-def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, atol: float) -> tuple[FitResult, Array]:
+def _finish(
+    model: Model, y, state, data: SiteData, steps: int, rtol: float, atol: float, chords: int = 0
+) -> tuple[FitResult, Array]:
     """One site after the fixed steps (``y``: the last accepted point, ``state`` the
     solver's): the convergence test and the statistics.
+
+    With ``chords``, that many chord steps follow: Gauss-Newton updates from the
+    residuals evaluated afresh and the last step's Jacobian and Cholesky factor (a
+    model evaluation each, without derivatives: a fraction of a step). They converge
+    linearly at a rate of the relative change of the Jacobian over the last update,
+    so two of them finish what one Gauss-Newton step from a good start leaves, and the
+    convergence test is made on the last one.
 
     Converged when the last update and the change of the residuals it made are within
     the tolerances (optimistix's Cauchy test) and everything is finite. When the
@@ -221,6 +232,14 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     # last update, which is below the tolerances: the difference is of the order of that
     # update).
     low, pivots = normal_equations.factor_entries(state.descent_state.low), state.descent_state.pivots
+    for _ in range(chords):
+        rw = site_residuals(model.replace_parameters(params, [y[k] for k in range(m)]), data)
+        update = -normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
+        y = y + update
+        step_change = _along(cols, update)
+        rw = tuple(b + dc for b, dc in zip(rw, step_change))
+    if chords:
+        r = jnp.stack([jnp.where(data.used, x / safe_w, 0.0) for x in rw], axis=-1)
     if is_affine(model):
         # The same Jacobian everywhere: the update still to come, from the final residuals.
         update = normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
@@ -235,7 +254,7 @@ def _finish(model: Model, y, state, data: SiteData, steps: int, rtol: float, ato
     suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
     unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
     result = result_from_covariance(
-        fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps, small, "gauss-newton"
+        fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps + chords, small, "gauss-newton"
     )
     return result, suspect
 
@@ -272,7 +291,15 @@ def uses_fast_compile_options(model: Model) -> bool:
     not for the exact (sky) residual form with sky offsets, whose fixed-point iterations
     ran twice as fast with XLA's default emitters (8 TPOINT terms, 1,024 sites: 0.51
     against 1.05 s per call) and compiled no slower."""
-    return not (model.residual_form == "sky" and any(type(t).sky_offset is not Term.sky_offset or type(t).sky_offset_at is not Term.sky_offset_at for t in model.terms))
+    return not _sky_form_with_sky_offsets(model)
+
+
+def _sky_form_with_sky_offsets(model: Model) -> bool:
+    """Whether ``model`` is fitted in the exact (sky) form and some term has a sky offset
+    (then the form solves a fixed point per observation)."""
+    return model.residual_form == "sky" and any(
+        type(t).sky_offset is not Term.sky_offset or type(t).sky_offset_at is not Term.sky_offset_at for t in model.terms
+    )
 
 
 def _site_data_batch(model, obs) -> SiteData:
@@ -285,8 +312,38 @@ def _site_data_batch(model, obs) -> SiteData:
     return jax.vmap(lambda d, p: with_sky_basis(model, d, p))(data, point)
 
 
-def _site_data_and_fits(model, y0, obs, steps: int, rtol: float, atol: float):
+def _site_data_and_fits(model, y0, obs, steps: int, rtol: float, atol: float, tpoint_start: bool = False):
+    if tpoint_start:
+        # TPOINT's form of the same model is linear in the library's terms: one step
+        # solves it, and its solution is within the square of the corrections of the
+        # exact form's, so one exact step and two chord steps finish the fit (five
+        # exact steps from the start values did, at 2.7 times the cost).
+        start = model.with_residual_form("tpoint")
+        first, _ = _fixed_steps_fits(start, y0, _site_data_batch(start, obs), 1, rtol, atol)
+        y0 = jnp.where(jnp.all(jnp.isfinite(first.values), axis=-1, keepdims=True), first.values, y0)
+        result, suspect = _fixed_steps_fits(model, y0, _site_data_batch(model, obs), steps, rtol, atol, TPOINT_START_CHORDS)
+        return dataclasses.replace(result, iterations=result.iterations + 1), suspect  # the start's step counts
     return _fixed_steps_fits(model, y0, _site_data_batch(model, obs), steps, rtol, atol)
+
+
+TPOINT_START_STEPS = 1
+"""Exact (sky form) Gauss-Newton steps after the TPOINT-form start (:func:`starts_in_tpoint_form`)."""
+
+TPOINT_START_CHORDS = 2
+"""Chord steps after them (:func:`_finish`)."""
+
+
+def starts_in_tpoint_form(model: Model) -> bool:
+    """Whether the fast pass starts the exact (sky) form's fit of ``model`` from the
+    solution of its TPOINT form: a model with sky offsets (else the sky form is the
+    chain alone) on a mount with spherical angles (which TPOINT's form needs) that is
+    not affine in its parameters."""
+    return (
+        model.residual_form == "sky"
+        and isinstance(model.mount, SphericalMount)
+        and _sky_form_with_sky_offsets(model)
+        and not is_affine(model)
+    )
 
 
 def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
@@ -301,8 +358,10 @@ def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
     own and handed over as arrays."""
     statics = ("steps", "rtol", "atol")
     fast = uses_fast_compile_options(model)
-    if steps > 1:
-        return _compiled(_site_data_and_fits, statics, fast)(model, values, obs, steps=steps, rtol=rtol, atol=atol)
+    if steps > 1 or starts_in_tpoint_form(model):
+        return _compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
+            model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=starts_in_tpoint_form(model)
+        )
     data = _compiled(_site_data_batch, (), fast)(model, obs)
     return _compiled(_fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)
 
@@ -406,7 +465,11 @@ def fit_batch(
     full ``solver`` loop (:func:`pointax.fit`'s algorithm, SVD statistics): so every
     converged site meets the same tolerances as a solo :func:`pointax.fit`, and a bad
     site gets a solo fit's diagnosis. ``steps=0`` sends every site through the full
-    loop; robust losses always use it.
+    loop; robust losses always use it. The exact (sky) form of a model with sky
+    offsets on a mount with spherical angles starts from the one-step solution of its
+    TPOINT form, and its exact steps end with two chord steps
+    (:func:`starts_in_tpoint_form`): 4 times the rate of five exact steps from the
+    start values (``benchmarks/batch_fit_notes.md``).
 
     Args:
         model: the model (structure, fixed parameters and default starting values).
@@ -416,8 +479,9 @@ def fit_batch(
         steps: Gauss-Newton steps of the fast first pass (0: none). Default: 1 when the
             residuals are affine in the free parameters (``residual_form="tpoint"`` with
             only TPOINT linear-form terms free, :func:`pointax.site.is_affine`: one step
-            is the solution, and the check needs no second), else 5 (they take a start
-            within a few tenths of a degree to float64 precision).
+            is the solution, and the check needs no second), 1 after the TPOINT-form
+            start (:func:`starts_in_tpoint_form`), else 5 (they take a start within a
+            few tenths of a degree to float64 precision).
         solver, max_steps, rtol, atol, loss, loss_scale, reject: as in :func:`pointax.fit`.
         chunk_size: sites per compiled call (``None``: all at once). Chunks bound the
             memory and keep the working set in the CPU's caches (1,024 sites per
@@ -441,7 +505,7 @@ def fit_batch(
     solver, rtol, atol = options.solver, options.rtol, options.atol
     check_batch(observations)
     if steps is None:
-        steps = 1 if is_affine(model) else DEFAULT_STEPS
+        steps = 1 if is_affine(model) else TPOINT_START_STEPS if starts_in_tpoint_form(model) else DEFAULT_STEPS
     if int(steps) < 0:
         raise ValueError(f"steps must be >= 0, got {steps!r}")
     check_convention(model, observations)
@@ -484,7 +548,8 @@ def fit_batch(
                     active=np.arange(pad) < again.size,
                 )
                 # (the solver's name is static: one name for the batch, set at the end)
-                redo = dataclasses.replace(redo, iterations=redo.iterations + int(steps), solver=out.solver)
+                fast_steps = np.asarray(out.iterations)[again]
+                redo = dataclasses.replace(redo, iterations=redo.iterations + _pad_sites(fast_steps, pad), solver=out.solver)
                 out = _put_sites(out, again, redo)
             results.append(_first_sites(out, n))
             if progress is not None:

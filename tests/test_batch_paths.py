@@ -46,8 +46,14 @@ def test_clean_sites_of_library_models_stay_on_the_fast_path(name, monkeypatch):
     result = px.fit_batch(start, px.stack_observations(sites))
     assert np.all(np.asarray(result.converged))
     assert calls == []  # no site went to the full loop
-    steps = 1 if batch.is_affine(start) else batch.DEFAULT_STEPS
+    if batch.is_affine(start):
+        steps = 1
+    elif batch.starts_in_tpoint_form(start):  # one TPOINT-form step, exact steps, chord steps
+        steps = 1 + batch.TPOINT_START_STEPS + batch.TPOINT_START_CHORDS
+    else:
+        steps = batch.DEFAULT_STEPS
     assert np.all(np.asarray(result.iterations) == steps)
+    assert batch.starts_in_tpoint_form(start) == (name == "tpoint terms, sky form")
 
 
 def test_sites_left_to_the_full_loop_equal_their_solo_fits():
