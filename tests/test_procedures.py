@@ -314,3 +314,49 @@ def test_gc_postscript_says_so(tmp_path, capsys):
     assert "GC: PostScript" in out
     assert (tmp_path / "plot.ps").read_bytes()[:4] == b"%!PS"
     assert (tmp_path / "plot.eps").read_bytes()[:4] == b"%!PS"
+
+
+def test_tpoint_session_forms_of_plot_commands(tmp_path, capsys):
+    """Forms seen in observatories' TPOINT sessions: ``call a9`` (A9 as a procedure),
+    ``gc p`` (writes tpoint.ps), ``gc b FILE``, ``plton xw``. The A9 drawn equals the
+    bare command's nine panels (read from the figure's titles); a procedure named A9
+    takes precedence; E9 on an alt-az run is refused by name."""
+    from pointax.plots.tpoint_panels import A9_PANELS
+
+    s = script(
+        tmp_path, "forms.ptp",
+        f"plton xw\nindat {MMT_DAT}\nuse IA IE\nfit\ncall a9\ngc p\na9\ngc b nine.pdf\n",
+    )  # fmt: skip
+    assert main(["tpoint", "--azimuth", "S-E", str(s)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("A9: drawn") == 2 and "PLTON: display setting accepted" in out
+    assert (tmp_path / "tpoint.ps").read_bytes()[:4] == b"%!PS"
+    assert (tmp_path / "nine.pdf").read_bytes()[:5] == b"%PDF-" and "black and white" in out
+    session = Session(out=io.StringIO())
+    runner = Runner(session, err=io.StringIO())
+    runner.run_lines(iter(_lines(f"indat {MMT_DAT}\nuse IA IE\nfit\ncall a9", tmp_path)))
+    titles = [ax.get_title() for ax in session.figure.axes if ax.get_title()]
+    assert [t.split(":")[0] for t in titles] == list(A9_PANELS)
+    before = len(session.out.getvalue())
+    runner.run_lines(iter(_lines("proc a9\nshow\nreturn\ncall a9", tmp_path)))
+    after = session.out.getvalue()[before:]
+    assert "A9: drawn" not in after and "data:" in after  # the procedure's SHOW ran instead
+    with pytest.raises(ProcedureError, match="E9 is the equatorial set"):
+        runner.run_lines(iter(_lines("e9", tmp_path)))
+
+
+def test_e9_draws_the_equatorial_set(shared_data):
+    """E9 on the German-mount run: nine panels, the cross-declination residual against
+    hour angle equal to the fit's first residual component (read from the artists)."""
+    import pointax as px
+    from pointax.plots import tpoint_graph
+    from pointax.plots.tpoint_panels import E9_PANELS
+
+    run = px.io.read_tpoint(shared_data / "tpoint" / "equatorial" / "cgx-l-data.dat")
+    result = px.fit(run.model(px.terms.tpoint("IH ID CH NP MA ME", mount="equatorial", latitude=run.latitude)), run)
+    fig = tpoint_graph("E9", result, run)
+    axes = [ax for ax in fig.axes if ax.get_title()]
+    assert [ax.get_title().split(":")[0] for ax in axes] == list(E9_PANELS)
+    first = axes[0]
+    y = np.concatenate([line.get_ydata() for line in first.get_lines() if line.get_gid() == "used"])
+    np.testing.assert_allclose(np.sort(y), np.sort(np.asarray(result.residuals)[:, 0] / px.units.ARCSEC), rtol=1e-9, atol=1e-9)

@@ -2,9 +2,15 @@
 
 A plot command is ``G`` followed by what to plot (the ordinate, a residual) and what
 to plot it against (the abscissa, a position), with or without spaces and in any
-case: ``G S A``, ``gsa``, ``GAM Z``, ``G AM Z``. The codes, as pointax reads them
-(TPOINT's own manual was not at hand to check every letter; each panel's title spells
-out what it shows):
+case: ``G S A``, ``gsa``, ``GAM Z``, ``G AM Z``. The codes, as pointax reads them. TPOINT's
+own manual was not at hand to check every letter; each panel's title spells out what it
+shows. What observatories' published TPOINT sessions confirm (JCMT's procedure page,
+GBT's TPOINT summaries): the spaced form ``g s a``, ``g a a``, ``g z z``; dS as the
+azimuth residual on the sky and dZ as the zenith-distance residual; A and Z as
+positions; GSMAP, GSCAT and GDIST as commands; A9 run as a procedure (``call a9``) and an
+equatorial counterpart E9. The other letters (E, V, R, D, X, H as residuals; E, H, D, N
+as positions), GHIST, the panels of A9 beyond dS and dZ against A and Z, and all of E9's
+panels are pointax's reading. TPOINT's GHYST (not drawn here) is not a histogram.
 
 Residuals (ordinate), observed minus model, in the fit's unit (arcsec):
 
@@ -31,11 +37,17 @@ Positions (abscissa), of the observed (catalogue) direction, degrees:
 Whole plots: ``GSMAP`` (also ``GMAP``): the sky map with residual vectors
 (:mod:`pointax.plots.skymap`); ``GHIST`` (also ``G HIST``, ``GDIST``): histograms of
 both components and of the on-sky distance; ``GSCAT`` (also ``G SCAT``): dE against
-dS; ``A9``: the nine-panel alt-az set, in reading order::
+dS; ``A9``: the nine-panel alt-az set (also ``CALL A9`` in a procedure), in reading order::
 
     G S A    G Z A    G V A        dS, dZ, distance against azimuth
     G S Z    G Z Z    G AM Z       dS, dZ, dA against zenith distance
     GSCAT    GSMAP    GHIST        dE vs dS, sky map, histogram of the distance
+
+``E9`` (equatorial mounts, also ``CALL E9``), the same set in the mount's own axes::
+
+    G X H    G D H    G V H        dX = dH cos dec, d dec, distance against hour angle
+    G X D    G D D    G V D        the same against declination
+    GSCAT    GSMAP    GHIST
 
 Masked (weight 0) and outlier observations are drawn in their own artists (gid
 ``'masked'``, ``'outlier'``), as in :mod:`pointax.plots.residuals`.
@@ -50,7 +62,10 @@ from .data import ResidualData, residual_data
 from .residuals import draw_histogram, draw_points, draw_scatter, histogram_figure, scatter_figure, title_of
 from .skymap import draw_skymap, skymap_figure
 
-__all__ = ["ORDINATES", "ABSCISSAE", "WHOLE_PLOTS", "A9_PANELS", "parse_command", "tpoint_graph", "draw_graph", "valid_commands"]
+__all__ = [
+    "ORDINATES", "ABSCISSAE", "WHOLE_PLOTS", "A9_PANELS", "E9_PANELS", "parse_command", "tpoint_graph", "draw_graph",
+    "nine_panel_figure", "valid_commands",
+]  # fmt: skip
 
 ORDINATES = ("AM", "S", "A", "E", "Z", "V", "R", "D", "X", "H")
 """Residual codes (longest first, as the parser tries them)."""
@@ -58,11 +73,20 @@ ORDINATES = ("AM", "S", "A", "E", "Z", "V", "R", "D", "X", "H")
 ABSCISSAE = ("A", "E", "Z", "H", "D", "N")
 """Position codes."""
 
-WHOLE_PLOTS = {"GSMAP": "GSMAP", "GMAP": "GSMAP", "GHIST": "GHIST", "GDIST": "GHIST", "GSCAT": "GSCAT", "A9": "A9"}
+WHOLE_PLOTS = {
+    "GSMAP": "GSMAP", "GMAP": "GSMAP", "GHIST": "GHIST", "GDIST": "GHIST", "GSCAT": "GSCAT", "A9": "A9", "E9": "E9",
+}  # fmt: skip
 """Names of whole plots -> the canonical name."""
 
 A9_PANELS = ("G S A", "G Z A", "G V A", "G S Z", "G Z Z", "G AM Z", "GSCAT", "GSMAP", "GHIST")
 """The nine panels of A9, in reading order (rows of three)."""
+
+E9_PANELS = ("G X H", "G D H", "G V H", "G X D", "G D D", "G V D", "GSCAT", "GSMAP", "GHIST")
+"""The nine panels of pointax's E9, A9's counterpart for equatorial mounts: the
+cross-declination and declination residuals and the distance against hour angle, then
+against declination, then the scatter, the map and the histogram."""
+
+NINE_PANELS = {"A9": A9_PANELS, "E9": E9_PANELS}
 
 _EQUATORIAL_ONLY = {"H"}
 
@@ -159,7 +183,7 @@ def abscissa(data: ResidualData, code: str) -> tuple[np.ndarray, str]:
 
 
 def draw_graph(ax, data: ResidualData, parsed: tuple[str, ...], *, legend: bool = False):
-    """Draw one parsed command (not A9) on ``ax``."""
+    """Draw one parsed command (not A9 or E9) on ``ax``."""
     name = parsed[0]
     if name == "GSMAP":
         draw_skymap(ax, data, legend=legend)
@@ -203,20 +227,22 @@ def tpoint_graph(command: str, result, observations, *, outliers=None):
     if parsed == ("GSCAT",):
         return scatter_figure(result, observations, outliers=outliers)
     data = residual_data(result, observations, outliers)
-    if parsed == ("A9",):
-        return a9_figure(result, data)
+    if parsed[0] in NINE_PANELS:
+        return nine_panel_figure(result, data, parsed[0])
     fig = new_figure(8.0, 5.0)
     draw_graph(fig.add_subplot(), data, parsed, legend=True)
     fig.suptitle(title_of(result))
     return fig
 
 
-def a9_figure(result, data: ResidualData):
-    """TPOINT's nine-panel alt-az set (:data:`A9_PANELS`), each panel titled by its
-    command."""
+def nine_panel_figure(result, data: ResidualData, name: str = "A9"):
+    """A nine-panel set, ``'A9'`` (:data:`A9_PANELS`) or ``'E9'`` (:data:`E9_PANELS`,
+    equatorial mounts only), each panel titled by its command."""
+    if name == "E9" and not _equatorial(data):
+        raise ValueError(f"E9 is the equatorial set (this fit's mount is {data.mount}): draw A9")
     fig = new_figure(15.0, 14.0)
     axes = fig.subplots(3, 3)
-    for k, (ax, name) in enumerate(zip(axes.ravel(), A9_PANELS)):
-        draw_graph(ax, data, parse_command(name), legend=(k == 0))
-    fig.suptitle(title_of(result, "A9"))
+    for k, (ax, panel) in enumerate(zip(axes.ravel(), NINE_PANELS[name])):
+        draw_graph(ax, data, parse_command(panel), legend=(k == 0))
+    fig.suptitle(title_of(result, name))
     return fig

@@ -303,16 +303,27 @@ def cmd_graph(s: Session, args: list[str], line: Line) -> None:
     s.say(f"{command.upper()}: drawn (GC FILE writes it)")
 
 
+GC_DEVICES = {"P": "colour PostScript", "B": "black-and-white PostScript"}
+"""TPOINT's GC device letters (``GC P`` writes ``tpoint.ps``; ``GC P FILE``)."""
+
+
 def cmd_gc(s: Session, args: list[str], line: Line) -> None:
     """GC FILE: write the last figure in the format of the extension (.png, .svg,
-    .pdf; .ps and .eps give PostScript)."""
+    .pdf; .ps and .eps give PostScript); TPOINT's GC P [FILE] and GC B [FILE] too
+    (default file tpoint.ps; drawn in colour either way)."""
     from ..plots import save_figure
 
+    device = args[0].upper() if args and args[0].upper() in GC_DEVICES and "." not in args[0] else None
+    if device is not None:
+        args = args[1:] or ["tpoint.ps"]
     if len(args) != 1:
-        raise ValueError("GC needs one file name")
+        raise ValueError("GC needs one file name (or TPOINT's GC P [FILE], GC B [FILE])")
     if s.figure is None:
         raise ValueError("GC: no figure yet (draw one with a G command, e.g. G S A)")
-    s.say(f"GC: {save_figure(s.figure, line.path(args[0]))}")
+    note = ""
+    if device == "B":
+        note = " (GC B asks for black and white: pointax draws in colour)"
+    s.say(f"GC: {save_figure(s.figure, line.path(args[0]))}{note}")
 
 
 def cmd_capt(s: Session, args: list[str], line: Line) -> None:

@@ -15,7 +15,9 @@ import dataclasses
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-__all__ = ["Line", "ProcedureError", "COMMANDS", "NOTED_SETTINGS", "read_script", "lines_of", "split", "resolve"]
+__all__ = [
+    "Line", "ProcedureError", "COMMANDS", "NOTED_SETTINGS", "PLOT_PROCEDURES", "read_script", "lines_of", "split", "resolve",
+]  # fmt: skip
 
 COMMANDS = (
     "INDAT",
@@ -44,9 +46,13 @@ COMMANDS = (
 )
 """The command words pointax runs (G commands besides: any word starting with G)."""
 
-NOTED_SETTINGS = ("CLRNG", "PLTZ", "PLTE", "PLTA", "GSCALE", "GRID", "DEVICE", "PAUSE")
+NOTED_SETTINGS = ("CLRNG", "PLTZ", "PLTE", "PLTA", "GSCALE", "GRID", "DEVICE", "PAUSE", "PLTON")
 """Display settings of TPOINT's graphics accepted with a note (they change nothing in
 pointax's plots). CAPT, the caption, is honoured."""
+
+PLOT_PROCEDURES = ("A9", "E9")
+"""TPOINT's plot sets that its sessions run as procedures (``CALL A9``): built in here,
+bare or called, unless a procedure of that name is defined."""
 
 
 class ProcedureError(Exception):
@@ -130,7 +136,7 @@ def resolve(word: str, procedures: Iterable[str] = ()) -> str:
     procedures = {p.upper() for p in procedures}
     if word in procedures:
         return f"PROC:{word}"
-    if word.startswith("G"):
+    if word.startswith("G") or word in PLOT_PROCEDURES:
         return "G"
     if len(word) >= 2:
         matches = [c for c in COMMANDS if c.startswith(word)]

@@ -14,13 +14,14 @@ interactive session prints the error and goes on.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO
 
 from .commands import COMMAND_FUNCTIONS
-from .parser import Line, ProcedureError, lines_of, read_script, resolve, split
+from .parser import PLOT_PROCEDURES, Line, ProcedureError, lines_of, read_script, resolve, split
 from .session import Session
 
 __all__ = ["Runner", "MAX_DEPTH"]
@@ -150,12 +151,13 @@ class Runner:
         if len(args) != 1:
             raise ProcedureError(line, "PROC needs one procedure name")
         name = args[0].upper()
-        try:
-            resolve(name)
-        except ValueError:
-            pass
-        else:
-            raise ProcedureError(line, f"PROC {name}: that is a command's name (or abbreviation)")
+        if name not in PLOT_PROCEDURES:  # TPOINT's A9 and E9 are procedures: redefinable
+            try:
+                resolve(name)
+            except ValueError:
+                pass
+            else:
+                raise ProcedureError(line, f"PROC {name}: that is a command's name (or abbreviation)")
         body: list[Line] = []
         for inner in rest if rest is not None else ():
             parsed = split(inner.text)
@@ -188,6 +190,9 @@ class Runner:
 
     def _call(self, line: Line, name: str) -> None:
         body = self.session.procedures.get(name)
+        if body is None and name in PLOT_PROCEDURES:  # TPOINT's CALL A9: the built-in set
+            self.run_line(dataclasses.replace(line, text=name))
+            return
         if body is None:
             known = ", ".join(sorted(self.session.procedures)) or "none"
             raise ProcedureError(line, f"CALL {name}: no such procedure (defined: {known})")
