@@ -18,7 +18,7 @@ from pointax import planning as pl
 from pointax.planning.design import design_scores, exchange_design, greedy_design
 from pointax.planning.ordering import order_path, path_length, slew_matrix
 from pointax.batch import batched_observations
-from pointax.rotations import angle_between, offset_direction
+from pointax.rotations import angle_between, azel_to_enu_numpy, offset_direction
 from pointax.units import ARCSEC, DEG
 
 TERMS = "IA IE CA NPAE AN AW"
@@ -265,3 +265,242 @@ def test_cli_choices_are_the_library_constants():
     from pointax.cli.plan import PLAN_CRITERIA
 
     assert PLAN_CRITERIA == pl.CRITERIA
+
+
+# ------------------------------------------------------------------ the Moon, the clock, the sun's path
+# References: astropy directly (get_body, SkyCoord, AltAz), not pointax's own placing.
+
+KITT_PEAK = (31.96, -111.60, 2100.0)
+# The Moon (two days before full) stands high over Kitt Peak at this time.
+MOON_UP = "2026-03-01T05:00"
+
+
+def _astropy_altaz(stars, times, where):
+    """Astropy's apparent alt-az (unrefracted) of catalogue stars ``(n,)`` at ``times``
+    (one or ``(n,)``): ICRS with proper motion and parallax, moved to each time."""
+    import warnings
+
+    import astropy.units as u
+    import erfa
+    from astropy.coordinates import AltAz, SkyCoord
+    from astropy.time import Time
+
+    plx = np.maximum(stars.parallax_mas, 1e-3)
+    times = Time(times, scale="utc")
+    coord = SkyCoord(ra=stars.ra * u.rad, dec=stars.dec * u.rad, distance=(1000.0 / plx) * u.pc,
+                     pm_ra_cosdec=stars.pm_ra_cosdec_mas_yr * u.mas / u.yr, pm_dec=stars.pm_dec_mas_yr * u.mas / u.yr,
+                     radial_velocity=np.zeros(len(stars)) * u.km / u.s, frame="icrs",
+                     obstime=Time(stars.epoch, format="jyear", scale="tt"))  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", erfa.ErfaWarning)  # pmsafe: distances of tiny parallaxes
+        return coord.apply_space_motion(new_obstime=times).transform_to(AltAz(obstime=times, location=where))
+
+
+def _astropy_body(name, times, where):
+    from astropy.coordinates import AltAz, get_body
+    from astropy.time import Time
+
+    times = Time(times, scale="utc")
+    return get_body(name, times, location=where).transform_to(AltAz(obstime=times, location=where))
+
+
+def test_moon_avoidance_against_astropy():
+    """Every star kept is more than moon_avoid_deg from the Moon (astropy's separation of
+    the star's and the Moon's alt-az places); the stars left out are exactly those
+    within it, and there are some (the Moon is up)."""
+    where = px.sky.site(*KITT_PEAK)
+    every = pl.star_candidates(where, MOON_UP, moon_avoid_deg=None)
+    kept = pl.star_candidates(where, MOON_UP, moon_avoid_deg=25)
+    moon = _astropy_body("moon", MOON_UP, where)
+    assert moon.alt.deg > 30
+    sep = _astropy_altaz(every.stars, MOON_UP, where).separation(moon).deg
+    assert np.all(_astropy_altaz(kept.stars, MOON_UP, where).separation(moon).deg > 25 - 1e-3)
+    gone = ~np.isin(every.label, kept.label)
+    assert 10 <= gone.sum() < 0.2 * len(every)
+    assert np.all(sep[gone] <= 25 + 1e-3) and np.all(sep[~gone] > 25 - 1e-3)
+    assert len(kept) + gone.sum() == len(every)
+    # The default (15 deg) leaves out some too, and bad angles name the option.
+    assert len(pl.star_candidates(where, MOON_UP)) < len(every)
+    with pytest.raises(ValueError, match="moon_avoid_deg"):
+        pl.star_candidates(where, MOON_UP, moon_avoid_deg=-1)
+
+
+@pytest.fixture(scope="module")
+def scheduled():
+    """A 2-hour run: 30 stars at 240 s each, with its warnings."""
+    import warnings
+
+    where = px.sky.site(*KITT_PEAK)
+    cand = pl.star_candidates(where, MOON_UP, min_elevation_deg=25, max_elevation_deg=80, moon_avoid_deg=20)
+    model = px.AltAz(px.terms.tpoint(TERMS))
+    limits = ((-270 * DEG, 270 * DEG), None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plan = px.plan_run(model, cand, 30, limits=limits, seconds_per_target=240)
+    snapshot = px.plan_run(model, cand, 30, limits=limits)
+    return where, cand, model, plan, snapshot, [str(w.message) for w in caught if issubclass(w.category, px.io.PointaxWarning)]
+
+
+def test_scheduled_stars_are_where_astropy_puts_them(scheduled):
+    """Target k is scheduled at start + k x 240 s; its direction there agrees with
+    astropy's alt-az of the same star at that time within 3 arcsec; at that time it is
+    within every limit (elevation, Sun, Moon by astropy's places; the mount's)."""
+    from astropy.time import Time
+
+    where, cand, model, plan, snapshot, _ = scheduled
+    n = len(plan)
+    t = Time(list(plan.targets.time), scale="utc")
+    dt = (t - Time(MOON_UP, scale="utc")).sec
+    assert np.allclose(dt, 240.0 * np.arange(n), atol=1e-3)
+    ref = _astropy_altaz(plan.targets.stars, t, where)
+    ref_d = azel_to_enu_numpy(ref.az.rad, ref.alt.rad)
+    miss = np.degrees(np.arccos(np.clip(np.sum(ref_d * plan.targets.direction, axis=-1), -1, 1))) * 3600
+    assert miss.max() < 3.0
+    assert np.all((ref.alt.deg >= 25 - 1e-3) & (ref.alt.deg <= 80 + 1e-3))
+    assert np.all(ref.separation(_astropy_body("sun", t, where)).deg > 30 - 1e-3)
+    assert np.all(ref.separation(_astropy_body("moon", t, where)).deg > 20 - 1e-3)
+    assert np.all(np.abs(plan.readings[:, 0]) <= 270 * DEG)
+    assert np.allclose(np.asarray(model(plan.readings)), plan.targets.direction, atol=1e-8)
+    # The stars moved: over two hours, by far more than the tolerance.
+    moved = np.degrees(np.arccos(np.clip(np.sum(cand.direction[plan.index] * plan.targets.direction, axis=-1), -1, 1)))
+    assert moved[-1] > 10
+    # The JSON rows give the scheduled time and the az/el there.
+    rows = plan.to_dict()["targets"]
+    assert [r["time"] for r in rows] == list(plan.targets.time)
+    assert np.allclose([r["azimuth_deg"] for r in rows], ref.az.deg, atol=1e-3)
+    assert np.allclose([r["elevation_deg"] for r in rows], ref.alt.deg, atol=1e-3)
+    # A snapshot keeps every target at the start time.
+    assert set(snapshot.targets.time) == {cand.time[0]} and snapshot.seconds_per_target is None
+
+
+def test_scheduled_targets_that_break_a_limit_are_dropped_and_named(scheduled):
+    """Targets that have left the limits by their scheduled time are dropped, each named
+    in the warning; at its due time each one really breaks a limit (astropy)."""
+    from astropy.time import Time
+
+    where, cand, model, plan, _, messages = scheduled
+    assert plan.dropped, "a two-hour run should lose a setting star"
+    assert len(messages) == 1
+    for label, when, reason in plan.dropped:
+        assert label in messages[0] and reason in messages[0]
+        assert label not in set(plan.targets.label)
+        star = cand.stars[np.flatnonzero(cand.label == label)]
+        t = Time(when, scale="utc")
+        ref = _astropy_altaz(star, t, where)
+        el = float(ref.alt.deg[0])
+        sun = float(ref.separation(_astropy_body("sun", t, where)).deg[0])
+        moon = float(ref.separation(_astropy_body("moon", t, where)).deg[0])
+        assert el < 25 + 1e-3 or el > 80 - 1e-3 or sun < 30 + 1e-3 or moon < 20 + 1e-3, (label, reason)
+    assert len(plan) + len(plan.dropped) <= 30
+
+
+def test_scheduled_accuracy_is_that_of_the_observed_directions(scheduled):
+    _, cand, model, plan, _, _ = scheduled
+    there = px.predicted_accuracy(model, directions=plan.targets.direction, noise=2 * ARCSEC).summary()
+    before = px.predicted_accuracy(model, directions=cand.direction[plan.index], noise=2 * ARCSEC).summary()
+    assert plan.summary["rms_arcsec"] == pytest.approx(there["rms_arcsec"], rel=1e-9)
+    assert plan.summary["max_arcsec"] == pytest.approx(there["max_arcsec"], rel=1e-9)
+    assert abs(before["rms_arcsec"] / there["rms_arcsec"] - 1) > 1e-3
+    assert np.allclose(plan.accuracy.observations, plan.targets.direction)
+
+
+def test_seconds_per_target_needs_stars(model, grid):
+    with pytest.raises(ValueError, match="seconds_per_target"):
+        px.plan_run(model, grid, 8, seconds_per_target=60)
+    with pytest.raises(ValueError, match="seconds_per_target"):
+        px.plan_run(model, grid, 8, seconds_per_target=-1)
+    assert px.plan_run(model, grid, 8, seconds_per_target=0).seconds_per_target is None
+
+
+@pytest.fixture(scope="module")
+def sun_plan():
+    where = px.sky.site(40.0, 116.3, 50.0)
+    cand = pl.sun_candidates(where, "2026-03-01", 10, step_minutes=30)
+    model = px.Turntable("full").set(alpha0=60.5 * DEG, beta0=165.9 * DEG)
+    return where, cand, model, px.plan_run(model, cand, 12, noise=36 * ARCSEC)
+
+
+def test_sun_plans_are_judged_over_the_sun_path(sun_plan):
+    """The default sky of a sun plan is the sun's path: each of its directions within
+    1 arcsec of astropy's sun at one of the times of the span (generated here), none
+    below the elevation limit; the summary is the accuracy over it, not the grid's."""
+    import astropy.units as u
+    from astropy.time import Time
+
+    where, cand, model, plan = sun_plan
+    assert plan.summary["sky"] == "path" and plan.summary["n_sky"] == len(plan.sky) == len(cand)
+    times = Time("2026-03-01", scale="utc") + np.arange(0, 10 * 1440, 30) * u.min
+    sun = _astropy_body("sun", times, where)
+    up = sun.alt.deg >= 15
+    ref = azel_to_enu_numpy(sun.az.rad[up], sun.alt.rad[up])
+    closest = np.degrees(np.arccos(np.clip(np.max(plan.sky @ ref.T, axis=1), -1, 1))) * 3600
+    assert closest.max() < 1.0 and len(plan.sky) == up.sum()
+    path = plan.accuracy.summary(plan.sky)
+    grid_summary = plan.accuracy.summary()
+    assert plan.summary["rms_arcsec"] == pytest.approx(path["rms_arcsec"], rel=1e-9)
+    assert abs(plan.summary["rms_arcsec"] / grid_summary["rms_arcsec"] - 1) > 0.05
+    whole = px.plan_run(model, cand, 12, noise=36 * ARCSEC, sky="grid")
+    assert whole.summary["sky"] == "grid" and whole.summary["n_sky"] == pl.sky_grid().shape[0]
+    assert whole.summary["rms_arcsec"] == pytest.approx(whole.accuracy.summary()["rms_arcsec"], rel=1e-9)
+    with pytest.raises(ValueError, match="sky must be"):
+        px.plan_run(model, cand, 12, noise=36 * ARCSEC, sky="sun")
+
+
+def test_planning_imports_no_private_names():
+    """pointax.planning and pointax.cli.plan import only public names of other modules."""
+    import ast
+    import pathlib
+
+    root = pathlib.Path(pl.__file__).parent
+    files = sorted(root.glob("*.py")) + [root.parent / "cli" / "plan.py"]
+    bad = []
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                bad += [f"{path.name}: {node.module}.{a.name}" for a in node.names if a.name.startswith("_")]
+    assert not bad
+
+
+def test_cli_plan_stars_scheduled(capsys):
+    """--cadence and --moon-avoid on the command line: the JSON gives each target's
+    scheduled time and its az/el then (astropy's, within 3 arcsec), all clear of the
+    Moon at that time (astropy)."""
+    from astropy.time import Time
+
+    from pointax.cli import main
+
+    status = main(["plan", "--site", "31.96,-111.60,2100", "--time", MOON_UP, "-n", "10", "--terms", "IA,IE,CA,AN,AW",
+                   "--cadence", "120", "--moon-avoid", "20", "--json"])  # fmt: skip
+    out = json.loads(capsys.readouterr().out)
+    assert status == 0 and out["seconds_per_target"] == 120 and out["predicted"]["sky"] == "grid"
+    rows = out["targets"]
+    t = Time([r["time"] for r in rows], scale="utc")
+    assert np.allclose((t - Time(MOON_UP, scale="utc")).sec, 120.0 * np.arange(len(rows)), atol=1e-3)
+    where = px.sky.site(*KITT_PEAK)
+    cat = px.stars.bright_stars()
+    stars = cat[np.array([int(np.flatnonzero(cat.hip == int(r["label"]))[0]) for r in rows])]
+    ref = _astropy_altaz(stars, t, where)
+    got = azel_to_enu_numpy(np.radians([r["azimuth_deg"] for r in rows]), np.radians([r["elevation_deg"] for r in rows]))
+    want = azel_to_enu_numpy(ref.az.rad, ref.alt.rad)
+    assert np.degrees(np.arccos(np.clip(np.sum(got * want, axis=-1), -1, 1))).max() * 3600 < 3.0
+    assert np.all(ref.separation(_astropy_body("moon", t, where)).deg > 20 - 1e-3)
+
+
+def test_cli_plan_sun_sky_and_bad_new_options(capsys):
+    from pointax.cli import main
+
+    sun = ["plan", "--sun", "--site", "40,116.3,50", "--time", "2026-03-01", "--days", "5", "--step", "60",
+           "--params", "alpha0=60.5,beta0=165.9", "-n", "8", "--noise", "36", "--json"]  # fmt: skip
+    assert main(sun) == 0
+    path = json.loads(capsys.readouterr().out)
+    assert main(sun + ["--whole-sky"]) == 0
+    whole = json.loads(capsys.readouterr().out)
+    assert path["predicted"]["sky"] == "path" and whole["predicted"]["sky"] == "grid"
+    assert path["predicted"]["n_sky"] != whole["predicted"]["n_sky"]
+    assert path["seconds_per_target"] is None
+    stars = ["plan", "--site", "31.96,-111.60,2100", "--time", MOON_UP]
+    for extra, option in ((["--moon-avoid", "200"], "--moon-avoid"), (["--cadence", "-5"], "--cadence"), (["--whole-sky"], "--whole-sky")):
+        assert main(stars + extra) == 2
+        assert option in capsys.readouterr().err
+    assert main(sun + ["--cadence", "60"]) == 2
+    assert "--cadence" in capsys.readouterr().err

@@ -4,15 +4,24 @@ accuracy of its fit (:func:`pointax.plan_run`).
     pointax plan --site LAT,LON,HEIGHT --time ISO [--terms IA,IE,...] [-n 40] [--target-rms ARCSEC]
                  [--noise ARCSEC] [--mount altaz|xy] [--criterion i-optimal|d-optimal]
                  [--min-elevation DEG] [--max-elevation DEG] [--az-limits=MIN,MAX] [--sun-avoid DEG]
-                 [--max-magnitude MAG] [--pressure HPA] [--skymap FILE.png] [--json]
+                 [--moon-avoid DEG] [--cadence SECONDS] [--max-magnitude MAG] [--pressure HPA]
+                 [--skymap FILE.png] [--json]
     pointax plan --sun --site LAT,LON,HEIGHT --time START --days 30 [--step MINUTES]
-                 [--terms full|simple] [--params alpha0=60.5,beta0=165.9] [-n 20] ...
+                 [--terms full|simple] [--params alpha0=60.5,beta0=165.9] [-n 20] [--whole-sky] ...
     pointax plan --grid [--mount altaz|xy|turntable] [--terms ...] [-n 20] ...
 
 Telescopes (default, ``--mount altaz`` or ``xy``): the candidates are the bundled
 catalogue's stars (4559 Hipparcos stars, :func:`pointax.planning.star_candidates`)
-visible at the site at ``--time`` between the elevation limits and at least
-``--sun-avoid`` degrees (default 30) from the Sun. ``--terms``: TPOINT names for
+visible at the site at ``--time`` between the elevation limits, at least
+``--sun-avoid`` degrees (default 30) from the Sun and ``--moon-avoid`` degrees (default
+15; 0 keeps all) from the Moon (its topocentric place, up or not). The run starts at
+``--time`` and each target takes ``--cadence`` seconds (default 60, slew included):
+after ordering, target k (from 0) is scheduled at ``--time`` + k x cadence and its
+azimuth and elevation are those of the star at that time; targets that by then have
+left the elevation or mount limits or come too near the Sun or Moon are dropped (a
+warning and the table name them, the later targets moving up), not replaced, and the
+predicted accuracy is that of the targets as scheduled. ``--cadence 0``: a snapshot,
+every star where it is at ``--time``. ``--terms``: TPOINT names for
 ``altaz`` (default TPOINT's eight basic terms), a family name or term names for ``xy``
 (default ``basic``). Sun trackers (``--sun``: ``--mount turntable``): the Sun's
 positions every ``--step`` minutes over ``--days`` days from ``--time``
@@ -23,24 +32,33 @@ linearise (the encoder zeros matter: default 0). Heliostats (``--sun --mount hel
 (:func:`pointax.heliostat_model`, terms ``t1n,t1u,t2e,t2n`` by default), the candidates
 the mirror normals that send the sun to the receiver, whose direction from the mirror
 is ``--receiver AZ,EL`` (degrees) or, by default, the mean of the folder's measured
-reflected rays; readings are actuator counts. ``--grid``: an azimuth-elevation
-grid every 15 deg in azimuth and 5 deg in elevation (mechanical tests).
+reflected rays; readings are actuator counts. A sun tracker only ever points along the
+sun's path, so sun plans are chosen and judged over it by default: the predicted
+figures average over the candidates within the limits (the sun, or the mirror normals,
+every ``--step`` minutes over ``--days``: weighted by tracking time); ``--whole-sky``
+uses the visible sky's grid instead (512 equal-area points, 20-85 deg), as telescope
+plans do. ``--grid``: an azimuth-elevation grid every 15 deg in azimuth and 5 deg in
+elevation (mechanical tests).
 
 ``--az-limits=MIN,MAX`` (degrees of the axis-1 reading, e.g. ``--az-limits=-270,270``
 for a cable wrap: with ``=``, since the value starts with a minus sign) puts each target on its wrap branch and drops those outside; ``--el-limits``
 likewise for axis 2. The plan stops at ``-n`` targets or as soon as the predicted
-all-sky pointing RMS reaches ``--target-rms`` arcsec.
+pointing RMS over the plan's sky reaches ``--target-rms`` arcsec.
 
-Output: the targets in observing order (label: HIP number, time or grid index;
-azimuth and elevation in degrees; the axis readings; the predicted pointing error of
-the fitted model there, arcsec) and the predicted all-sky RMS, maximum and median-run
-RMS (20-85 deg elevation); with ``--json`` one object with the keys ``site``, ``time``,
-``model``, ``n``, ``criterion``, ``noise_arcsec``, ``n_candidates``, ``stopped``,
-``slew_deg``, ``readings_unit``, ``predicted`` (``rms_arcsec``, ``max_arcsec``,
-``median_rms_arcsec``, ``n_sky``), ``rms_after_arcsec`` and ``targets`` (``order``,
-``label``, ``azimuth_deg``, ``elevation_deg``, ``readings``, ``predicted_sigma_arcsec``,
-``time``, ``magnitude``). ``--skymap FILE.png`` also saves the predicted-accuracy sky
-map. Exit status: 0 success, 1 when ``--target-rms`` was not reached, 2 bad input.
+Output: the targets in observing order (label: HIP number, time or grid index; the
+time, UTC, the target is scheduled for (stars) or seen at (sun); azimuth and elevation
+in degrees at that time; the axis readings; the predicted pointing error of the fitted
+model there, arcsec), the predicted RMS, maximum and median-run RMS over the plan's sky
+(the visible sky 20-85 deg, or the sun's path), and the targets dropped; with
+``--json`` one object with the keys ``site``, ``time``, ``model``, ``n``,
+``criterion``, ``noise_arcsec``, ``n_candidates``, ``stopped``, ``slew_deg``,
+``readings_unit``, ``seconds_per_target`` (null for a snapshot), ``dropped`` (``label``,
+``time``, ``reason``), ``predicted`` (``rms_arcsec``, ``max_arcsec``,
+``median_rms_arcsec``, ``n_sky``, ``sky``: 'grid' or 'path'), ``rms_after_arcsec`` and
+``targets`` (``order``, ``label``, ``azimuth_deg``, ``elevation_deg``, ``readings``,
+``predicted_sigma_arcsec``, ``time``, ``magnitude``). ``--skymap FILE.png`` also saves
+the predicted-accuracy sky map. Exit status: 0 success, 1 when ``--target-rms`` was not
+reached (or reached only before the stars moved), 2 bad input.
 """
 
 from __future__ import annotations
@@ -74,7 +92,7 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     source.add_argument("--sun", action="store_true", help="sun tracker: candidates are sun positions over --days")
     source.add_argument("--grid", action="store_true", help="a plain azimuth-elevation grid (mechanical tests)")
     p.add_argument("--site", metavar="LAT,LON,HEIGHT", help="site: latitude and longitude (deg, East +), height (m)")
-    p.add_argument("--time", metavar="ISO", help="UTC time of the run (stars) or of the first sun position (--sun)")
+    p.add_argument("--time", metavar="ISO", help="UTC start of the run (stars: targets are scheduled from it) or time of the first sun position (--sun)")
     p.add_argument("--days", type=float, default=30.0, help="--sun: span of days (default: %(default)s)")
     p.add_argument("--step", type=float, default=10.0, metavar="MINUTES", help="--sun: minutes between sun positions (default: %(default)s)")
     p.add_argument("--mount", choices=list(PLAN_MOUNTS), default=None, help="mount (default: altaz; turntable with --sun)")
@@ -84,7 +102,7 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--receiver", default=None, metavar="AZ,EL", help="--mount heliostat: direction of the receiver, deg")
     p.add_argument("--params", default="", help="where to linearise: name=value,... (arcsec for altaz/xy, deg for turntable)")
     p.add_argument("-n", type=int, default=40, help="most targets (default: %(default)s)")
-    p.add_argument("--target-rms", type=float, default=None, metavar="ARCSEC", help="stop once the predicted all-sky RMS is this")
+    p.add_argument("--target-rms", type=float, default=None, metavar="ARCSEC", help="stop once the predicted RMS over the plan's sky (the whole sky; --sun: the sun's path) is this")
     p.add_argument("--noise", type=float, default=2.0, metavar="ARCSEC", help="expected measurement noise per axis (default: %(default)s)")
     p.add_argument("--criterion", choices=list(PLAN_CRITERIA), default="i-optimal", help="design criterion (default: %(default)s)")
     p.add_argument("--min-elevation", type=float, default=None, metavar="DEG", help="lowest elevation (default 20; --sun 15)")
@@ -93,6 +111,13 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--el-limits", default=None, metavar="MIN,MAX", help="axis-2 reading limits, degrees (write --el-limits=MIN,MAX)")
     p.add_argument("--flipped", action="store_true", help="the flipped (over the top) mechanical solution")
     p.add_argument("--sun-avoid", type=float, default=30.0, metavar="DEG", help="stars: keep this far from the Sun (default: %(default)s)")
+    p.add_argument("--moon-avoid", type=float, default=15.0, metavar="DEG",
+                   help="stars: keep this far from the Moon, up or not (default: %(default)s; 0 keeps all)")  # fmt: skip
+    p.add_argument("--cadence", type=float, default=None, metavar="SECONDS",
+                   help="stars: seconds per target, slew included; each target is placed where it is at its scheduled "
+                   "time, --time + k x cadence, and dropped if it has left the limits (default 60; 0: a snapshot at --time)")  # fmt: skip
+    p.add_argument("--whole-sky", action="store_true",
+                   help="--sun: choose and judge over the whole visible sky (20-85 deg) instead of the sun's path over --days")  # fmt: skip
     p.add_argument("--max-magnitude", type=float, default=None, metavar="MAG", help="stars: only this bright or brighter")
     p.add_argument("--pressure", type=float, default=None, metavar="HPA", help="air pressure for refraction (none without it)")
     p.add_argument("--skymap", default=None, metavar="FILE.png", help="save the predicted-accuracy sky map")
@@ -160,6 +185,15 @@ def _plan(args):
         raise ValueError(f"-n must be at least 1, got {args.n}")
     if not (args.noise > 0):
         raise ValueError(f"--noise must be positive, got {args.noise}")
+    for option, value in (("--sun-avoid", args.sun_avoid), ("--moon-avoid", args.moon_avoid)):
+        if not (0.0 <= value <= 180.0):
+            raise ValueError(f"{option} must be between 0 and 180 degrees, got {value}")
+    if args.cadence is not None and not (math.isfinite(args.cadence) and args.cadence >= 0):
+        raise ValueError(f"--cadence must be a number of seconds >= 0, got {args.cadence}")
+    if args.cadence and (args.sun or args.grid):
+        raise ValueError("--cadence schedules stars: sun positions are at their own times, and a grid has none")
+    if args.whole_sky and not args.sun:
+        raise ValueError("--whole-sky is for sun plans (--sun): star and grid plans are judged over the whole sky already")
     lo = args.min_elevation if args.min_elevation is not None else (15.0 if args.sun else 20.0)
     hi = args.max_elevation if args.max_elevation is not None else (90.0 if args.sun else 85.0)
     site = time = None
@@ -199,15 +233,18 @@ def _plan(args):
                               pressure_hpa=args.pressure, target=target)  # fmt: skip
     else:
         cand = star_candidates(site, time, min_elevation_deg=lo, max_elevation_deg=hi, max_magnitude=args.max_magnitude,
-                               sun_avoid_deg=args.sun_avoid, pressure_hpa=args.pressure)  # fmt: skip
+                               sun_avoid_deg=args.sun_avoid, moon_avoid_deg=args.moon_avoid or None,
+                               pressure_hpa=args.pressure)  # fmt: skip
     if len(cand) == 0:
-        raise ValueError("no candidate lies within the elevation limits (and away from the Sun) at that time")
+        raise ValueError("no candidate lies within the elevation limits (and away from the Sun and Moon) at that time")
+    cadence = None if args.sun or args.grid else (60.0 if args.cadence is None else args.cadence)
     plan = plan_run(
         model, cand, args.n, noise=args.noise * ARCSEC, criterion=args.criterion,
         target_rms=None if args.target_rms is None else args.target_rms * ARCSEC, limits=limits,
         solution="flipped" if args.flipped else "normal",
         # (sun positions were cut by the sun's elevation; a heliostat's candidates are normals)
         min_elevation_deg=None if args.sun else lo, max_elevation_deg=None if args.sun else hi,
+        seconds_per_target=cadence, sky="grid" if args.whole_sky else None,
     )  # fmt: skip
     meta = {
         "site": None if site is None else [float(x) for x in _floats(args.site, 3, "--site")],
@@ -241,7 +278,8 @@ def run_plan(args) -> int:
         print(plan.table())
     missed = args.target_rms is not None and plan.stopped != "target"
     if missed and not args.json:
-        print(f"{_PREFIX}: the predicted RMS did not reach {args.target_rms}\" with {len(plan)} targets")
+        print(f"{_PREFIX}: the predicted RMS did not reach {args.target_rms}\" with {len(plan)} targets"
+              + (" as scheduled (it did with the stars where they were at --time)" if plan.stopped == "moved" else ""))  # fmt: skip
     return 1 if missed else 0
 
 

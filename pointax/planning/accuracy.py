@@ -46,6 +46,7 @@ __all__ = [
     "sky_grid",
     "sky_average",
     "noise_weights",
+    "invert_information",
     "SKY_GRID_POINTS",
     "SKY_MIN_ELEVATION_DEG",
     "SKY_MAX_ELEVATION_DEG",
@@ -261,13 +262,14 @@ def predicted_accuracy(
             raise ValueError(f"the model cannot point at {int((~ok).sum())} of the planned directions")
     jac, where = pointing_jacobian(model, readings)
     m = information_matrix(jac, noise)
-    cov = _inverse(m)
+    cov = invert_information(m)
     return PredictedAccuracy(model, cov, np.asarray(where))
 
 
-def _inverse(m: np.ndarray) -> np.ndarray:
-    """Inverse of an information matrix; ValueError if it is singular (relative to its
-    diagonal: parameters the observations cannot tell apart)."""
+def invert_information(m: Float[np.ndarray, "p p"]) -> Float[np.ndarray, "p p"]:
+    """The covariance ``M^-1`` of an information matrix ``M`` ``(p, p)`` (inverted
+    after scaling by its diagonal); ValueError if it is singular relative to its
+    diagonal (parameters the observations cannot tell apart)."""
     scale = np.sqrt(np.clip(np.diag(m), 1e-300, None))
     mn = m / scale[:, None] / scale[None, :]
     w = np.linalg.eigvalsh(mn)

@@ -217,10 +217,10 @@ def exchange_design(
     mean = np.where(mean > 0, mean, max(float(mean.max()), 1e-300))
     m0 = np.diag(float(ridge) * mean)
     a, available = _padded(a, available)
-    from .jacobian import _pad, padded_size
+    from .jacobian import pad_rows, padded_size
 
     n = chosen.size
-    padded = _pad(chosen, padded_size(n))
+    padded = pad_rows(chosen, padded_size(n))
     idx, swaps = _exchange(a, jnp.asarray(g, jnp.float64), jnp.asarray(m0), jnp.asarray(available), jnp.asarray(padded), n,
                            int(passes), criterion)  # fmt: skip
     return np.asarray(idx)[:n], int(swaps)

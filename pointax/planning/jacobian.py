@@ -25,7 +25,15 @@ from ..observations import COUNTED_READINGS
 from ..rotations import angle_between, tangent_offset, wrap_pi
 from ..units import directions_enu
 
-__all__ = ["readings_for", "pointing_jacobian", "reading_limits_ok", "INVERSE_ITERATIONS", "INVERSE_TOL"]
+__all__ = [
+    "readings_for",
+    "pointing_jacobian",
+    "reading_limits_ok",
+    "padded_size",
+    "pad_rows",
+    "INVERSE_ITERATIONS",
+    "INVERSE_TOL",
+]
 
 INVERSE_ITERATIONS = 6
 """Fixed-point iterations of :func:`readings_for` (each reduces the error by a factor of
@@ -45,7 +53,7 @@ def padded_size(n: int) -> int:
     return max(_MIN_BATCH, 1 << max(int(n) - 1, 0).bit_length())
 
 
-def _pad(x: np.ndarray, size: int) -> np.ndarray:
+def pad_rows(x: np.ndarray, size: int) -> np.ndarray:
     """Rows of ``x`` padded to ``size`` with copies of its first row."""
     if x.shape[0] == size:
         return x
@@ -116,7 +124,7 @@ def readings_for(
     n = d.shape[0]
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
-    reading, miss = _readings(_arrays(model), jnp.asarray(_pad(d, padded_size(n))), jnp.asarray(solution == "flipped"))
+    reading, miss = _readings(_arrays(model), jnp.asarray(pad_rows(d, padded_size(n))), jnp.asarray(solution == "flipped"))
     reading, miss = np.asarray(reading)[:n], np.asarray(miss)[:n]
     return reading, np.isfinite(miss) & (miss <= INVERSE_TOL) & np.all(np.isfinite(reading), axis=-1)
 
@@ -183,5 +191,5 @@ def pointing_jacobian(
     if not model.free_parameters:
         raise ValueError("the model has no free parameters: nothing to predict or plan")
     n = readings.shape[0]
-    jac, d = _jacobian(_arrays(model), jnp.asarray(_pad(readings, padded_size(n))))
+    jac, d = _jacobian(_arrays(model), jnp.asarray(pad_rows(readings, padded_size(n))))
     return jac[:n], d[:n]
