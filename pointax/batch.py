@@ -316,8 +316,9 @@ def _site_data_and_fits(model, y0, obs, steps: int, rtol: float, atol: float, tp
     if tpoint_start:
         # TPOINT's form of the same model is linear in the library's terms: one step
         # solves it, and its solution is within the square of the corrections of the
-        # exact form's, so one exact step and two chord steps finish the fit (five
-        # exact steps from the start values did, at 2.7 times the cost).
+        # exact form's, so one exact step and two chord steps finish the fit, where
+        # five exact steps from the start values cost several times as much
+        # (benchmarks/batch_fit_notes.md).
         start = model.with_residual_form("tpoint")
         first, _ = _fixed_steps_fits(start, y0, _site_data_batch(start, obs), 1, rtol, atol)
         y0 = jnp.where(jnp.all(jnp.isfinite(first.values), axis=-1, keepdims=True), first.values, y0)
@@ -331,6 +332,21 @@ TPOINT_START_STEPS = 1
 
 TPOINT_START_CHORDS = 2
 """Chord steps after them (:func:`_finish`)."""
+
+
+DEFAULT_CHUNK = 1024
+"""Sites per compiled call of :func:`fit_batch` by default."""
+
+SKY_FORM_CHUNK = 512
+"""Sites per compiled call for the exact (sky) form with sky offsets: its fixed point
+carries every parameter's derivative per observation, a larger working set per site
+(1,024 sites per chunk ran at two thirds of the rate of 512 or 256,
+``benchmarks/batch_fit_notes.md``)."""
+
+
+def default_chunk_size(model: Model) -> int:
+    """:func:`fit_batch`'s chunk size for ``model`` (``chunk_size='auto'``)."""
+    return SKY_FORM_CHUNK if _sky_form_with_sky_offsets(model) else DEFAULT_CHUNK
 
 
 def starts_in_tpoint_form(model: Model) -> bool:
@@ -450,7 +466,7 @@ def fit_batch(
     loss: str = "linear",
     loss_scale: float | None = None,
     reject: float = 3.0,
-    chunk_size: int | None = 1024,
+    chunk_size: int | str | None = "auto",
     progress: Callable[[int, int], None] | None = None,
     options: FitOptions | None = None,
 ) -> FitResult:
@@ -483,9 +499,10 @@ def fit_batch(
             start (:func:`starts_in_tpoint_form`), else 5 (they take a start within a
             few tenths of a degree to float64 precision).
         solver, max_steps, rtol, atol, loss, loss_scale, reject: as in :func:`pointax.fit`.
-        chunk_size: sites per compiled call (``None``: all at once). Chunks bound the
-            memory and keep the working set in the CPU's caches (1,024 sites per
-            chunk ran 1.4x faster than 4,096, see ``benchmarks/batch_fit_notes.md``);
+        chunk_size: sites per compiled call (``None``: all at once; 'auto', the
+            default: :func:`default_chunk_size`). Chunks bound the memory and keep the
+            working set in the CPU's caches (1,024 sites per chunk ran 1.4x faster
+            than 4,096, see ``benchmarks/batch_fit_notes.md``);
             every chunk has the same shape (the last is padded), so one compilation
             serves them all. A batch smaller than a chunk is padded to the next power
             of two: batches of 100 and of 101 sites share one compilation.
@@ -520,6 +537,10 @@ def fit_batch(
         np.asarray(observations.weight, np.float64),
         observations.convention,
     )
+    if isinstance(chunk_size, str):
+        if chunk_size != "auto":
+            raise ValueError(f"chunk_size must be a number of sites, None or 'auto', got {chunk_size!r}")
+        chunk_size = default_chunk_size(model)
     size = n_sites if chunk_size is None else min(max(1, int(chunk_size)), _power_of_two(n_sites))
     chunks = [(start, min(start + size, n_sites)) for start in range(0, n_sites, size)]
 
