@@ -620,6 +620,7 @@ def check_targets(out: dict, sizes) -> dict:
     tp = {name: out["tpoint"]["methods"][name][size] for name in out["tpoint"]["methods"] if name.endswith("(tpoint residuals)")}
     best_tt = max(tt, key=lambda n: tt[n]["fits_per_s"])
     best_tp = max(tp, key=lambda n: tp[n]["fits_per_s"])
+    sky = {name: out["tpoint"]["methods"][name][size] for name in out["tpoint"]["methods"] if name.endswith("(sky residuals)")}
     diff = tt[best_tt]["max_param_diff_rad"]
 
     def target(variant, value, ok):
@@ -638,6 +639,9 @@ def check_targets(out: dict, sizes) -> dict:
         ),
         "tpoint_fits_per_s>=100000": target(best_tp, tp[best_tp]["fits_per_s"], tp[best_tp]["fits_per_s"] >= 100_000),
     }
+    if sky:  # issue 17: the exact (sky) form's batched fit
+        best_sky = max(sky, key=lambda n: sky[n]["fits_per_s"])
+        targets["sky_fits_per_s>=20000"] = target(best_sky, sky[best_sky]["fits_per_s"], sky[best_sky]["fits_per_s"] >= 20_000)
     if "warm" in cache:
         # Not the issue's target (that is the in-process figure above): what a later
         # process pays with pointax's compilation cache on.
