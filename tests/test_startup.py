@@ -146,6 +146,11 @@ def test_help_imports_no_numerical_library(argv):
         (("plot", "x.dat", "--kind", "pie", "-o", "x.png"), "invalid choice: 'pie'"),
         (("report", "/nonexistent.dat", "-o", "r.html"), "pointax report: error: /nonexistent.dat: No such file"),
         (("fitt", "x.dat"), "invalid choice: 'fitt'"),
+        (("plan", "--site", "31,-110,2000", "--time", "2026-03-01T05:00", "--moon-avoid", "500"),
+         "pointax plan: error: --moon-avoid must be between 0 and 180 degrees"),
+        (("plan", "--site", "31,-110", "--time", "2026-03-01T05:00"), "pointax plan: error: --site: expected 3"),
+        (("plan", "--sun", "--site", "31,-110,2000", "--time", "2026-03-01", "--cadence", "60"),
+         "pointax plan: error: --cadence schedules stars"),
     ],
 )
 def test_argument_errors_answer_before_any_numerical_library(argv, message):

@@ -173,9 +173,6 @@ def _model(args, mount: str):
 
 
 def _plan(args):
-    from ..planning import grid_candidates, plan_run, star_candidates, sun_candidates
-    from ..units import ARCSEC, DEG
-
     mount = args.mount or ("turntable" if args.sun else "altaz")
     if args.sun and mount not in ("turntable", "heliostat"):
         raise ValueError(f"--sun plans sun trackers: use --mount turntable or heliostat (not {mount})")
@@ -207,9 +204,13 @@ def _plan(args):
         time = as_time(args.time)
     limits = None
     if args.az_limits or args.el_limits:
-        az = tuple(v * DEG for v in _floats(args.az_limits, 2, "--az-limits")) if args.az_limits else None
-        el = tuple(v * DEG for v in _floats(args.el_limits, 2, "--el-limits")) if args.el_limits else None
+        az = tuple(math.radians(v) for v in _floats(args.az_limits, 2, "--az-limits")) if args.az_limits else None
+        el = tuple(math.radians(v) for v in _floats(args.el_limits, 2, "--el-limits")) if args.el_limits else None
         limits = (az, el)
+    # The options are checked: now the numerical libraries (an error above imports none).
+    from ..planning import grid_candidates, plan_run, star_candidates, sun_candidates
+    from ..units import ARCSEC
+
     model = _model(args, mount)
     if args.grid:
         cand = grid_candidates()
