@@ -199,7 +199,7 @@ def test_fit_is_traceable_under_vmap(simulated):
     other = px.simulate(_truth(), np.asarray(simulated.encoder), noise=1.0 * ARCSEC, seed=4)
     stack = jax.tree.map(lambda a, b: jnp.stack([jnp.asarray(a), jnp.asarray(b)]), simulated, other)
     options = FitOptions("gauss-newton", 50, 1e-10, 1e-13)
-    batched = jax.vmap(lambda o: fit_model(model, o, options))(stack)
+    batched = jax.jit(jax.vmap(lambda o: fit_model(model, o, options)))(stack)  # one program, not op by op
     for k, obs in enumerate([simulated, other]):
         solo = px.fit(model, obs, solver="gauss-newton", max_steps=50)
         np.testing.assert_allclose(np.asarray(batched.values[k]), np.asarray(solo.values), atol=1e-12)
