@@ -352,13 +352,16 @@ def default_chunk_size(model: Model) -> int:
 def starts_in_tpoint_form(model: Model) -> bool:
     """Whether the fast pass starts the exact (sky) form's fit of ``model`` from the
     solution of its TPOINT form: a model with sky offsets (else the sky form is the
-    chain alone) on a mount with spherical angles (which TPOINT's form needs) that is
-    not affine in its parameters."""
+    chain alone) on a mount with spherical angles (which TPOINT's form needs) whose
+    free parameters are all in linear sky-offset terms, so that one step solves the
+    TPOINT form. (With a free rotation term, say a wobble started 5 deg off in phase,
+    one step of the TPOINT form leaves too much for one exact step and two chords, and
+    every site went to the full loop where five exact steps had converged.)"""
     return (
         model.residual_form == "sky"
         and isinstance(model.mount, SphericalMount)
         and _sky_form_with_sky_offsets(model)
-        and not is_affine(model)
+        and all(model.terms[p.term].linear_sky_offset for p in model.free_parameters)
     )
 
 

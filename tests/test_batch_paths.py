@@ -75,3 +75,36 @@ def test_fast_compile_options_per_model():
     assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE"), residual_form="tpoint"))
     assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE", form="rigorous")))
     assert not batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE")))
+
+
+class _Wobble(px.Term):
+    """A user rotation term (the wobble of examples/new_error_term.py): nonlinear in its phase."""
+
+    amp: float = px.terms.param(0.0)
+    phase: float = px.terms.param(0.0, unit="deg")
+
+    def base_rotation(self, angles):
+        import jax.numpy as jnp
+
+        turn = 2.0 * angles[0] + self.phase
+        return px.rotations.small_tilt(self.amp * jnp.cos(turn), self.amp * jnp.sin(turn))
+
+
+def test_the_tpoint_start_is_only_for_linear_sky_terms(monkeypatch):
+    """TPOINT's linear terms with a free user rotation term in the sky form: one step of
+    the TPOINT form does not solve it, so the fit takes the five exact steps, and sites
+    started near the truth stay on the fast path (with the TPOINT start and one exact
+    step, every site went to the full loop). Fixed, the wobble leaves only linear sky
+    terms free: then the TPOINT start applies."""
+    linear = px.terms.tpoint("IA IE CA")
+    truth = px.AltAz(linear + (_Wobble(amp=px.arcsec(6), phase=px.deg(35)),)).set(IA=px.arcsec(30), IE=px.arcsec(-12), CA=px.arcsec(-9))
+    start = px.AltAz(linear + (_Wobble(amp=px.arcsec(5), phase=px.deg(30)),))
+    assert not batch.starts_in_tpoint_form(start)
+    assert batch.starts_in_tpoint_form(start.fix("_Wobble.amp", "_Wobble.phase"))
+    sites = _sites(truth, 4, px.arcsec(1.0), encoder_grid(8, (20, 35, 50, 65, 80)))
+    calls = []
+    real = batch._fit_sites
+    monkeypatch.setattr(batch, "_fit_sites", lambda *a, **k: calls.append(1) or real(*a, **k))
+    result = px.fit_batch(start, px.stack_observations(sites))
+    assert np.all(np.asarray(result.converged)) and calls == []
+    assert np.all(np.asarray(result.iterations) == batch.DEFAULT_STEPS)
