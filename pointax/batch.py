@@ -377,9 +377,10 @@ def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
     own and handed over as arrays."""
     statics = ("steps", "rtol", "atol")
     fast = uses_fast_compile_options(model)
-    if steps > 1 or starts_in_tpoint_form(model):
+    tpoint_start = starts_in_tpoint_form(model)
+    if steps > 1 or tpoint_start:
         return _compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
-            model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=starts_in_tpoint_form(model)
+            model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=tpoint_start
         )
     data = _compiled(_site_data_batch, (), fast)(model, obs)
     return _compiled(_fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)

@@ -131,6 +131,7 @@ from .sanity import (
     check_azimuth,
     check_not_radians,
     check_observed_elevation,
+    finite_number,
     warn_duplicates,
 )
 from .text import read_text
@@ -265,13 +266,7 @@ class GpointRun:
 
 
 def _number(path: str, lineno: int, token: str, field: int, name: str, record: str) -> float:
-    try:
-        value = float(token)
-    except ValueError:
-        raise GpointFormatError(path, lineno, f"{record}: field {field} ({name}) is {token!r}, not a number") from None
-    if not math.isfinite(value):
-        raise GpointFormatError(path, lineno, f"{record}: field {field} ({name}) is {token!r}, not finite")
-    return value
+    return finite_number(GpointFormatError, path, lineno, token, f"{record}: field {field} ({name})")
 
 
 def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:

@@ -10,6 +10,7 @@ lines after END) gives an :class:`~pointax.io.errors.InputWarning`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -18,6 +19,7 @@ from ..units import check_not_degrees
 from .errors import FileFormatError, warn_input
 
 __all__ = [
+    "finite_number",
     "AZIMUTH_LIMIT_DEG",
     "HORIZON_DEG",
     "check_azimuth",
@@ -35,6 +37,18 @@ HORIZON_DEG = -1.0
 """The lowest observed (apparent) elevation accepted, deg: refraction lifts a source at
 the horizon by about 0.6 deg (35'), so an apparent position below -1 deg cannot be a
 source in the sky."""
+
+
+def finite_number(error: type[FileFormatError], path, line: int, token: str, where: str) -> float:
+    """``token`` as a finite float, else the reader's ``error`` naming ``where`` (the
+    record and the field) and the token."""
+    try:
+        value = float(token)
+    except ValueError:
+        raise error(path, line, f"{where} is {token!r}, not a number") from None
+    if not math.isfinite(value):
+        raise error(path, line, f"{where} is {token!r}, not finite")
+    return value
 
 
 def check_azimuth(error: type[FileFormatError], path, line: int, value: float, where: str) -> None:

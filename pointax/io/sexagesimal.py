@@ -10,9 +10,9 @@ field's number and name.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from .errors import FileFormatError
+from .sanity import finite_number
 
 __all__ = ["Group", "group_value", "layout_fields"]
 
@@ -43,12 +43,7 @@ def group_value(
     for k, token in enumerate(tokens):
         part = ("", " (minutes)", " (seconds)")[k] if group.width > 1 else ""
         where = f"{record}: field {first + k} ({group.name}{part})"
-        try:
-            value = float(token)
-        except ValueError:
-            raise error(path, line, f"{where} is {token!r}, not a number") from None
-        if not math.isfinite(value):
-            raise error(path, line, f"{where} is {token!r}, not finite")
+        value = finite_number(error, path, line, token, where)
         if k > 0:
             if token.lstrip()[:1] in "+-":
                 raise error(path, line, f"{where} is {token!r}: only the first field of an angle carries a sign")

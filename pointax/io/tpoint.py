@@ -64,6 +64,7 @@ from .sanity import (
     check_azimuth,
     check_not_radians,
     check_observed_elevation,
+    finite_number,
     warn_after_end,
     warn_duplicates,
 )
@@ -276,14 +277,7 @@ def _numbers(
     values = []
     for k, token in enumerate(tokens):
         field = names[k] if k < len(names) else "unnamed"
-        number = first + k
-        try:
-            value = float(token)
-        except ValueError:
-            raise TpointFormatError(path, lineno, f"{record}: field {number} ({field}) is {token!r}, not a number") from None
-        if not math.isfinite(value):
-            raise TpointFormatError(path, lineno, f"{record}: field {number} ({field}) is {token!r}, not finite")
-        values.append(value)
+        values.append(finite_number(TpointFormatError, path, lineno, token, f"{record}: field {first + k} ({field})"))
     return values
 
 

@@ -222,13 +222,7 @@ def star_candidates(
 
     sun_avoid_deg = _avoid_angle(sun_avoid_deg, "sun_avoid_deg")
     moon_avoid_deg = _avoid_angle(moon_avoid_deg, "moon_avoid_deg")
-    cat = bright_stars() if catalogue is None else catalogue
-    keep = np.ones(len(cat), bool)
-    if max_magnitude is not None:
-        keep &= cat.magnitude <= float(max_magnitude)
-    if single_only:
-        keep &= cat.components == 1
-    cat = cat[keep]
+    cat = (bright_stars() if catalogue is None else catalogue).select(max_magnitude, single_only)
     t = as_time(time)
     if t.shape != ():
         raise ValueError(f"time must be a single time, got shape {t.shape}")

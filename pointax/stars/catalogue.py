@@ -196,6 +196,16 @@ class Catalogue:
             },
         )
 
+    def select(self, max_magnitude: float | None = None, single_only: bool = False) -> Catalogue:
+        """The stars no fainter than ``max_magnitude`` (all if None) and, with
+        ``single_only``, with a single-star astrometric solution (a new catalogue)."""
+        keep = np.ones(len(self), bool)
+        if max_magnitude is not None:
+            keep &= self.magnitude <= float(max_magnitude)
+        if single_only:
+            keep &= self.components == 1
+        return self[keep]
+
     @property
     def names(self) -> list[str]:
         """Proper name of each star from :data:`STAR_NAMES`, or ``"HIP <n>"``."""

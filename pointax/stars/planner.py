@@ -211,12 +211,7 @@ def plan_star_run(
     if weather is not None:
         weather = tuple(np.broadcast_to(w, (n,)) for w in weather)
 
-    keep = np.ones(len(catalogue), bool)
-    if max_magnitude is not None:
-        keep &= catalogue.magnitude <= float(max_magnitude)
-    if single_only:
-        keep &= catalogue.components == 1
-    candidates = catalogue[keep]
+    candidates = catalogue.select(max_magnitude, single_only)
     if len(candidates) < n:
         raise ValueError(
             f"the catalogue has {len(candidates)} stars after the cuts (max_magnitude={max_magnitude}, "
