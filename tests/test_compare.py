@@ -7,7 +7,8 @@
 * k-fold and holdout figures from fits of the subsets themselves (px.fit on the sliced
   observations, not the weight masks compare uses) and px.residuals on the held-back rows;
 * automatic model building recovers a planted term and adds no noise term, and its
-  Gauss-Newton fits agree with px.fit;
+  Gauss-Newton fits agree with px.fit; the terms and folds it tries are data of its
+  compiled programs (counted with JAX's compilation events);
 * the command line on the bundled MMT run reproduces TPOINT's Sky RMS of the basic model.
 """
 
@@ -17,6 +18,7 @@ import argparse
 import json
 import math
 
+import jax
 import numpy as np
 import pytest
 from conftest import MMT_DAT, MMT_MOD
@@ -240,13 +242,17 @@ def test_bad_input_is_named(tiny, small_model):
 # ----------------------------------------------------------------------------- automatic building
 
 
-def test_build_model_recovers_the_planted_term_and_no_noise_term(tiny):
-    # Candidates: the planted term, five absent from the truth, and dL_1, which is the
-    # start's L_zero under another name (the data cannot tell them apart).
-    candidates = [xy.Linearised(n) for n in ("dB_secB", "dL_sinL_tanB", "dL_tanL_secB", "dB_cosL", "dL_1")] + [
+def planted_candidates():
+    """The planted term, five absent from the truth, and dL_1, which is the start's
+    L_zero under another name (the data cannot tell them apart)."""
+    return [xy.Linearised(n) for n in ("dB_secB", "dL_sinL_tanB", "dL_tanL_secB", "dB_cosL", "dL_1")] + [
         xy.SphericalHarmonic("SHL_sinB^2"),
         xy.SphericalHarmonic("SHB_sinL_cosB"),
     ]
+
+
+def test_build_model_recovers_the_planted_term_and_no_noise_term(tiny):
+    candidates = planted_candidates()
     build = build_model(candidates, tiny, start=SMALL, folds=4, seed=0)
     assert build.added == ["dL_tanL_secB"], build.report()
     assert build.dropped == []
@@ -261,6 +267,30 @@ def test_build_model_recovers_the_planted_term_and_no_noise_term(tiny):
     L0, B0 = xy_angles(np.asarray(tiny.target))
     assert build.path[-1].rms_in == pytest.approx(axis_rms(np.asarray(check.residuals), np.cos(B0)).total, rel=1e-8)
     assert json.loads(json.dumps(build.to_dict()))["path"][1]["term"] == "dL_tanL_secB"
+
+
+def test_build_model_compiles_nothing_for_the_terms_and_folds_it_tries(tiny):
+    """The terms in use and the stars fitted are masks given to build_model's compiled
+    programs as data: once one build of these candidates has run, builds that fit and
+    screen other sets of terms on other folds compile nothing (counted with JAX's own
+    compilation events). A mask made part of a program's structure (static) would
+    compile once per set of terms or fold tried; a program rebuilt per build, once per build."""
+    first = build_model(planted_candidates(), tiny, start=SMALL, folds=4, seed=0, add_threshold=1e6)
+    assert "add" not in [s.action for s in first.path]  # it screened every candidate, added none
+    compiled = []
+
+    def count(event, duration, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiled.append(event)
+
+    jax.monitoring.register_event_duration_secs_listener(count)
+    try:
+        for seed in (1, 2):  # other folds: other rows fitted; other term sets fitted and screened
+            build = build_model(planted_candidates(), tiny, start=SMALL, folds=4, seed=seed)
+            assert build.added == ["dL_tanL_secB"], build.report()
+            assert compiled == [], (seed, len(compiled))
+    finally:
+        jax.monitoring.unregister_event_duration_listener(count)
 
 
 # ----------------------------------------------------------------------------- command line

@@ -3,28 +3,36 @@ grow a model term by term from candidates, keeping terms that are significant an
 predict unseen stars better, dropping those that are not, and record the path
 (:class:`ModelBuild`).
 
-The fits are Gauss-Newton in NumPy on one compiled residual-and-Jacobian function of a
-superset model (every candidate's parameters in it, those not in use held at 0), so
-trying a term costs no compilation. The figures are those of :mod:`pointax.analysis.statistics`;
-the out-of-sample schemes those of :mod:`pointax.analysis.folds`.
+Every fit is the fitting core's: Gauss-Newton steps of
+:func:`pointax.fitting.core.gauss_newton_step`, with TPOINT's statistics
+(:mod:`pointax.fitting.statistics`), in one compiled loop over a superset model (every
+candidate's parameters in it, those not in use held at 0). Which terms are in use and
+which stars are fitted (the in-sample fit, each fold) are masks given to that compiled
+program as data, so trying a term or a fold compiles nothing, and a later build of the
+same terms reuses the programs. Candidates are screened by one linearised step from the
+current fit (its Jacobian over every candidate), with the same statistics. The figures
+are those of :mod:`pointax.analysis.statistics`; the out-of-sample schemes those of
+:mod:`pointax.analysis.folds`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, Bool, Float
 
 from .._x64 import float64
+from ..fitting.core import linearised_change
 from ..fitting.residuals import residuals
-from ..fitting.statistics import DEGENERATE_RCOND
+from ..fitting.statistics import normalised_weights, statistics
 from ..model import Model
 from ..observations import Observations
 from ..progress import progress_bar
@@ -152,13 +160,120 @@ class ModelBuild:
         }
 
 
-def _linearise(model: Model, obs: Observations, y: Float[Array, " p"]) -> tuple[Array, Array]:
-    """Residuals ``(2n,)`` of ``model`` with free values ``y`` and their Jacobian ``(2n, p)``."""
+class _Steps(NamedTuple):
+    """One linearised least-squares step per row set (:func:`_steps`), as NumPy arrays
+    once fetched."""
+
+    values: Float[Array, "b m"]
+    """Every parameter of the superset after the step (model order, internal units)."""
+    change: Float[Array, "b m"]
+    """What the step added to each parameter (0 where it was not finite)."""
+    residuals: Float[Array, "b n 2"]
+    """Unweighted residuals after the step as the Jacobian predicts them, every
+    observation (fitted or not), radians."""
+    sigmas: Float[Array, "b m"]
+    """TPOINT sigmas (:func:`pointax.fitting.statistics.statistics`; inf: degenerate);
+    meaningless for parameters not fitted."""
+    sky_rms: Float[Array, " b"]
+    """TPOINT's Sky RMS of the fitted rows' residuals after the step, radians."""
+    finite: Bool[Array, " b"]
+    """The step, the values and the fitted rows' residuals are finite."""
+
+
+def _linearise(model: Model, obs: Observations, y: Float[Array, " m"]) -> tuple[Array, Array]:
+    """Residuals ``(n, 2)`` of ``model`` with the values ``y`` (every parameter) and their
+    Jacobian ``(2n, m)`` over every parameter (rows ``2i, 2i + 1``: observation ``i``),
+    from one trace of the model (the residuals are the Jacobian's primal)."""
 
     def r(y):
-        return residuals(model.with_values(y, "free"), obs).reshape(-1)
+        flat = residuals(model.with_values(y), obs).reshape(-1)
+        return flat, flat
 
-    return r(y), jax.jacfwd(r)(y)
+    jac, flat = jax.jacfwd(r, has_aux=True)(y)
+    return flat.reshape(-1, 2), jac
+
+
+FAST_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
+"""XLA options for build_model's programs (those of :data:`pointax.batch.FAST_COMPILE_OPTIONS`):
+on the CPU, XLA's older loop emitters compiled the residuals and Jacobian of the MMT
+run's 44-term superset in 1.0 s against 2.6 s with the fusion emitters, and ran them as
+fast (3.4 ms a call). Left out when this XLA does not know them."""
+
+
+@functools.cache
+def _compiler_options() -> dict:
+    try:
+        jax.jit(lambda x: x + 1.0, compiler_options=FAST_OPTIONS).lower(1.0).compile()
+    except Exception:  # an XLA without these options: its defaults
+        return {}
+    return FAST_OPTIONS
+
+
+_PROGRAMS: dict[tuple, Any] = {}
+"""The last few programs of :func:`_program`."""
+
+
+def _program(fn, static: Model, obs: Observations):
+    """``f(arrays, *args) = fn(eqx.combine(arrays, static), obs, *args)``, compiled. The
+    model's arrays (its parameters) are an argument, so the program serves every set of
+    terms and every build of the same model (``static``: its structure) on the same
+    observations; the observations are compiled in as constants (XLA folds what depends
+    on them alone: :func:`_linearise` of the 48-star test case's superset compiled in
+    0.6 s against 0.9 s with them an argument)."""
+    leaves, treedef = jax.tree.flatten(obs)
+    key = (fn, static, treedef, tuple((x.shape, x.dtype.str, np.asarray(x).tobytes()) for x in leaves))
+    program = _PROGRAMS.get(key)
+    if program is None:
+        program = jax.jit(
+            lambda arrays, *args: fn(eqx.combine(arrays, static), obs, *args), compiler_options=_compiler_options()
+        )
+        while len(_PROGRAMS) >= 8:
+            del _PROGRAMS[next(iter(_PROGRAMS))]
+        _PROGRAMS[key] = program
+    return program
+
+
+def _steps(
+    jac: Float[Array, "b k m"],
+    r: Float[Array, "b n 2"],
+    y: Float[Array, "b m"],
+    free: Bool[Array, " m"],
+    rows: Bool[Array, "b n"],
+) -> _Steps:
+    """One linearised least-squares step of the ``free`` parameters for each row set of
+    ``rows``, from the values ``y`` (every parameter), the ``(n, 2)`` residuals ``r`` of
+    every observation there (radians) and their ``(2n, m)`` Jacobian ``jac`` over every
+    parameter (:func:`_linearise`), each with a leading row-set axis: the fitting core's
+    linear algebra (:func:`pointax.fitting.core.linearised_change`, unit weights on the
+    rows) and TPOINT's statistics (:func:`pointax.fitting.statistics.statistics`) of the
+    residuals after the step, predicted as ``r + J dy``. The steps of a fit, and the
+    screening of a candidate (every row set from the in-sample fit)."""
+
+    def one(jac, r, y, rows):
+        sqrt_w = jnp.sqrt(normalised_weights(rows.astype(jac.dtype), rows))  # 1 on rows, 0 elsewhere
+        weighted = (r * sqrt_w[:, None]).reshape(-1)
+        change, unit_cov, degenerate = linearised_change(jac * jnp.repeat(sqrt_w, 2)[:, None], weighted, free)
+        step_finite = jnp.all(jnp.isfinite(change))
+        change = jnp.where(step_finite, change, 0.0)
+        values = y + change
+        predicted = r + (jac @ change).reshape(r.shape)
+        weighted = predicted * sqrt_w[:, None]
+        stats = statistics(weighted, rows, jnp.sum(free), unit_cov, degenerate)
+        finite = step_finite & jnp.all(jnp.isfinite(weighted)) & jnp.all(jnp.isfinite(values))
+        return _Steps(values, change, predicted, stats.sigmas, stats.sky_rms, finite)
+
+    return jax.vmap(one)(jac, r, y, rows)
+
+
+@functools.cache
+def _steps_program():
+    """:func:`_steps`, compiled (one program for every build)."""
+    return jax.jit(_steps, compiler_options=_compiler_options())
+
+
+def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a`` in the row sets of ``mask`` (``(b,)``), ``b`` elsewhere."""
+    return np.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
 
 
 @dataclasses.dataclass
@@ -166,152 +281,154 @@ class _State:
     """A converged fit of one set of active terms: in-sample and out-of-sample figures."""
 
     active: frozenset[int]  # term indices of the superset
-    y: np.ndarray  # (p,) free values, 0 for inactive parameters
-    r: np.ndarray  # (n, 2) residuals of the in-sample fit (all rows)
-    jac: np.ndarray  # (2n, p) Jacobian there
-    sigmas: np.ndarray  # (p,) TPOINT sigmas (inf: degenerate; nan: inactive)
+    y: np.ndarray  # (m,) every parameter of the superset, 0 for inactive ones
+    r: np.ndarray  # (n, 2) residuals of the in-sample fit (all rows), radians
+    sigmas: np.ndarray  # (m,) TPOINT sigmas (inf: degenerate; nan: inactive or fixed)
     rms_in: float
     rms_out: float
     sky_rms: float
     n_params: int
     converged: bool
+    # The in-sample fit's last values accepted, residuals and Jacobian there, once per
+    # row set (device arrays): where :func:`_steps` screens candidates from.
+    origin: tuple[Array, Array, Array]
 
 
 class _Builder:
-    """Least-squares fits of any subset of a superset model's terms, with one compiled
-    residual-and-Jacobian function (:func:`_linearise`); Gauss-Newton in NumPy."""
+    """Least-squares fits of any subset of a superset model's terms on each of a scheme's
+    row sets, and candidates screened from the in-sample fit, with two compiled
+    programs: the residuals and their Jacobian over every parameter
+    (:func:`_linearise`), and the linear algebra and statistics of a step
+    (:func:`_steps`). Which terms are active and which rows are fitted are data of
+    these (masks), so trying a term compiles nothing; the superset, the observations
+    and the number of row sets fix the programs, and a later build of the same
+    superset reuses them."""
 
     def __init__(self, superset: Model, scheme: Scheme, cos2, max_iterations: int = 30):
-        self.model = superset
+        # Every parameter value an array: the model's leaves are data, not baked in.
+        self.arrays, static = eqx.partition(superset.with_values(superset.values("all")), eqx.is_array)
         self.scheme = scheme
-        obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), scheme.obs)
-        # One compilation per build, model and observations closed over: a call then
-        # costs the evaluation only (equinox's filter_jit re-partitions a model of many
-        # terms on every call, which cost more than the evaluation here).
-        self._lin = jax.jit(lambda y: _linearise(superset, obs, y))
+        self.obs = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), scheme.obs)
+        self._linearise = _program(_linearise, static, self.obs)
+        # (b, n): the in-sample rows, then each split's fitting rows.
+        self.row_sets = np.stack([scheme.fit_rows] + [f for f, _ in scheme.splits])
+        self.rows = jax.device_put(self.row_sets)
         self.cos2 = cos2
         self.max_iterations = max_iterations
-        free = superset.free_parameters
-        self.p = len(free)
-        self.columns: dict[int, list[int]] = {}
-        for j, info in enumerate(free):
-            self.columns.setdefault(info.term, []).append(j)
-        self.y_start = np.asarray(superset.values("free"), np.float64)
+        params = superset.parameters
+        self.m = len(params)
+        self.fitted = np.array([p.name not in superset.fixed for p in params], bool)  # (m,)
+        self.columns: dict[int, list[int]] = {}  # term -> its free parameters (all-parameter index)
+        for j, info in enumerate(params):
+            if self.fitted[j]:
+                self.columns.setdefault(info.term, []).append(j)
+        self.y_start = np.asarray(superset.values("all"), np.float64)
 
-    def lin(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r, jac = self._lin(jnp.asarray(y, jnp.float64))
+    def linearise(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`_linearise` at the values ``y`` (``(m,)``): ``(n, 2)`` residuals, ``(2n, m)`` Jacobian."""
+        r, jac = self._linearise(self.arrays, jax.device_put(np.asarray(y, np.float64)))
         return np.asarray(r), np.asarray(jac)
 
-    def cols(self, active: Iterable[int]) -> np.ndarray:
-        return np.array(sorted(c for t in active for c in self.columns.get(t, [])), dtype=int)
+    def mask(self, active: Iterable[int]) -> np.ndarray:
+        """``(m,)`` the free parameters of the ``active`` terms."""
+        out = np.zeros(self.m, bool)
+        out[[c for t in active for c in self.columns.get(t, [])]] = True
+        return out
 
-    def solve(self, active, rows: np.ndarray, y0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
-        """Gauss-Newton (step-halving) on the rows ``rows`` (bool (n,)) for the columns
-        of the ``active`` terms; inactive parameters are 0. Returns y, r, J at the end
-        and whether it converged (the next step below :data:`STEP_TOLERANCE`, or below
-        1e-10 rad where no step lowers the cost any more)."""
-        cols = self.cols(active)
-        rr = np.repeat(rows, 2)
-        y = np.where(np.isin(np.arange(self.p), cols), y0, 0.0)
-        r, jac = self.lin(y)
-        cost = float(np.sum(r[rr] ** 2))
-        if cols.size == 0:
-            return y, r, jac, True
-        converged = False
-        for _ in range(self.max_iterations):
-            step, *_ = np.linalg.lstsq(jac[np.ix_(rr, cols)], -r[rr], rcond=DEGENERATE_RCOND)
-            if np.max(np.abs(step)) < STEP_TOLERANCE:
-                converged = True  # the next step is below 2e-7 arcsec
-                break
-            scale, accepted = 1.0, False
-            for _ in range(10):  # step halving: never accept a step that raises the cost
-                trial = y.copy()
-                trial[cols] += scale * step
-                r_t, jac_t = self.lin(trial)
-                cost_t = float(np.sum(r_t[rr] ** 2))
-                if cost_t <= cost:
-                    accepted = True
+    def fit(self, free: np.ndarray, y0: np.ndarray) -> tuple[_Steps, np.ndarray, tuple[np.ndarray, ...]]:
+        """Least squares of the ``free`` parameters on each row set, the others held at
+        their values ``y0`` (``(m,)``), by Gauss-Newton steps from ``y0``: the row sets
+        step together, each step one :func:`_steps` for them all, each trial point one
+        :func:`_linearise`.
+
+        A step that raises the cost (the sum of the squared residuals of the row set's
+        rows) is halved, at most 9 times, until it does not. A fit stops when its next
+        step is below :data:`STEP_TOLERANCE` (radians, largest over the parameters:
+        converged), when no halving lowers the cost (converged if the step is below
+        1e-10 rad), or after ``max_iterations`` steps (not converged).
+
+        Returns:
+            The step from each fit's last values accepted (for a converged fit below
+            :data:`STEP_TOLERANCE`): the values after it, the residuals predicted there
+            and TPOINT's statistics (NumPy :class:`_Steps`); whether each fit converged;
+            and those last values accepted, the residuals and the Jacobian there
+            (``(b, m)``, ``(b, n, 2)``, ``(b, 2n, m)``).
+        """
+        rows = self.row_sets
+        b = len(rows)
+        r0, jac0 = self.linearise(y0)  # the same start for every row set
+        y, r, jac = np.repeat(y0[None], b, 0), np.repeat(r0[None], b, 0), np.repeat(jac0[None], b, 0)
+        cost = np.sum(np.where(rows[:, :, None], r, 0.0) ** 2, axis=(1, 2))
+        free_, steps = jax.device_put(free), _steps_program()
+        live, converged = np.ones(b, bool), np.zeros(b, bool)
+        out = None
+        for k in range(self.max_iterations + 1):
+            s = jax.tree.map(np.asarray, steps(jac, r, y, free_, self.rows))
+            out = s if out is None else jax.tree.map(lambda new, old: _where(live, new, old), s, out)
+            if k == self.max_iterations:
+                break  # the fits still live took max_iterations steps: not converged
+            largest = np.max(np.abs(s.change), axis=1, initial=0.0)
+            small = live & (largest < STEP_TOLERANCE)
+            converged |= small & s.finite
+            live &= ~small
+            trying, scale = live.copy(), 1.0
+            for _ in range(10):  # the step, then up to 9 halvings: never accept a raised cost
+                for i in np.flatnonzero(trying):
+                    point = y[i] + scale * s.change[i]
+                    r_i, jac_i = self.linearise(point)
+                    cost_i = np.sum(np.where(rows[i][:, None], r_i, 0.0) ** 2)
+                    if cost_i <= cost[i]:
+                        y[i], r[i], jac[i], cost[i], trying[i] = point, r_i, jac_i, cost_i, False
+                if not trying.any():
                     break
                 scale *= 0.5
-            if not accepted:
-                converged = bool(np.max(np.abs(step)) < 1e-10)
+            converged |= trying & (largest < 1e-10) & s.finite  # no halving lowered the cost
+            live &= ~trying
+            if not live.any():
                 break
-            y, r, jac, cost = trial, r_t, jac_t, cost_t
-        return y, r, jac, converged
-
-    def sigmas(self, jac_rows: np.ndarray, cols: np.ndarray, sky_rms: float) -> np.ndarray:
-        """TPOINT sigmas of ``cols`` (inf where degenerate, as :func:`pointax.fit`)."""
-        out = np.full(self.p, np.nan)
-        if cols.size == 0:
-            return out
-        _, s, vt = np.linalg.svd(jac_rows[:, cols], full_matrices=False)
-        small = s <= DEGENERATE_RCOND * s[0]
-        inv = np.where(small, 0.0, 1.0 / np.where(small, 1.0, s) ** 2)
-        var = np.einsum("ki,k,ki->i", vt, inv, vt) * sky_rms**2
-        degenerate = np.any(small[:, None] & (np.abs(vt) > 0.1), axis=0)
-        out[cols] = np.where(degenerate, np.inf, np.sqrt(var))
-        return out
+        return out, converged, (y, r, jac)
 
     def total(self, r: np.ndarray, rows: np.ndarray) -> float:
         return axis_rms(r[rows], None if self.cos2 is None else self.cos2[rows]).total
 
+    def pooled(self, r: np.ndarray) -> float:
+        """Out-of-sample total RMS (eqs 21-23) of the splits' predictions: ``r`` is
+        ``(k, n, 2)``, split ``k``'s residuals of every observation."""
+        pieces = [r[k][v_rows] for k, (_, v_rows) in enumerate(self.scheme.splits)]
+        cos = None if self.cos2 is None else np.concatenate([self.cos2[v] for _, v in self.scheme.splits])
+        return axis_rms(np.concatenate(pieces), cos).total
+
     def state(self, active: frozenset[int], y0: np.ndarray) -> _State:
-        """Converged in-sample fit and out-of-sample predictions of ``active``."""
-        fit_rows = self.scheme.fit_rows
-        y, r_flat, jac, converged = self.solve(active, fit_rows, y0)
-        r = r_flat.reshape(-1, 2)
-        cols = self.cols(active)
-        n = int(fit_rows.sum())
-        sky = math.sqrt(float(np.sum(r[fit_rows] ** 2)) / n)
-        sig = self.sigmas(jac[np.repeat(fit_rows, 2)], cols, sky)
-        pieces, cos = [], []
-        for f_rows, v_rows in self.scheme.splits:
-            if np.array_equal(f_rows, fit_rows):
-                r_fold = r
-            else:
-                _, r_fold_flat, _, ok = self.solve(active, f_rows, y)
-                r_fold = r_fold_flat.reshape(-1, 2)
-                converged = converged and ok
-            pieces.append(r_fold[v_rows])
-            if self.cos2 is not None:
-                cos.append(self.cos2[v_rows])
-        rms_out = axis_rms(np.concatenate(pieces), np.concatenate(cos) if cos else None).total
-        return _State(active, y, r, jac, sig, self.total(r, fit_rows), rms_out, sky, int(cols.size), converged)
+        """Converged in-sample fit and out-of-sample predictions of ``active``, from the
+        values ``y0`` (``(m,)``; inactive parameters start, and stay, at 0)."""
+        free = self.mask(active)
+        fits, converged, (y, r, jac) = self.fit(free, np.where(self.fitted & ~free, 0.0, y0))
+        b = len(self.row_sets)
+        origin = jax.device_put(tuple(np.repeat(a[:1], b, 0) for a in (jac, r, y)))
+        return _State(
+            active,
+            fits.values[0],
+            fits.residuals[0],
+            np.where(free, fits.sigmas[0], np.nan),
+            self.total(fits.residuals[0], self.scheme.fit_rows),
+            self.pooled(fits.residuals[1:]),
+            float(fits.sky_rms[0]),
+            int(free.sum()),
+            bool(np.all(converged)),
+            origin,
+        )
 
     def screen(self, state: _State, term: int) -> tuple[float, float, bool]:
         """``(|value/sigma|, out-of-sample RMS, degenerate)`` with ``term`` added: one
-        Gauss-Newton step from the current fit, with its Jacobian, for the in-sample fit
-        and for every fold."""
-        fit_rows = self.scheme.fit_rows
-        active = state.active | {term}
-        cols = self.cols(active)
+        Gauss-Newton step from the in-sample fit, with its Jacobian, for the in-sample
+        fit and for every fold (:func:`_steps`)."""
+        s = _steps_program()(*state.origin, jax.device_put(self.mask(state.active | {term})), self.rows)
         new = self.columns[term]
-        r0 = state.r.reshape(-1)
-        jac = state.jac
-        rr = np.repeat(fit_rows, 2)
-        delta, *_ = np.linalg.lstsq(jac[np.ix_(rr, cols)], -r0[rr], rcond=DEGENERATE_RCOND)
-        r_new = (r0 + jac[:, cols] @ delta).reshape(-1, 2)
-        n = int(fit_rows.sum())
-        sky = math.sqrt(float(np.sum(r_new[fit_rows] ** 2)) / n)
-        sig = self.sigmas(jac[rr], cols, sky)
-        y_new = state.y.copy()
-        y_new[cols] += delta
-        if np.any(~np.isfinite(sig[new])):
+        sig = np.asarray(s.sigmas)[0, new]
+        if np.any(~np.isfinite(sig)):
             return 0.0, math.inf, True
-        z = float(np.max(np.abs(y_new[new] / sig[new])))
-        pieces, cos = [], []
-        for f_rows, v_rows in self.scheme.splits:
-            if np.array_equal(f_rows, fit_rows):
-                r_fold = r_new
-            else:
-                fr = np.repeat(f_rows, 2)
-                d_fold, *_ = np.linalg.lstsq(jac[np.ix_(fr, cols)], -r0[fr], rcond=DEGENERATE_RCOND)
-                r_fold = (r0 + jac[:, cols] @ d_fold).reshape(-1, 2)
-            pieces.append(r_fold[v_rows])
-            if self.cos2 is not None:
-                cos.append(self.cos2[v_rows])
-        rms_out = axis_rms(np.concatenate(pieces), np.concatenate(cos) if cos else None).total
-        return z, rms_out, False
+        z = float(np.max(np.abs(np.asarray(s.values)[0, new] / sig)))
+        return z, self.pooled(np.asarray(s.residuals)[1:]), False
 
     def significance(self, state: _State, term: int) -> float:
         cols = self.columns[term]
@@ -445,9 +562,9 @@ def build_model(
             skipped.append(f"{superset.terms[i].name} (no free parameters)")
 
     # Candidates at 0 must leave the pointing as it is.
-    obs64 = jax.tree.map(lambda x: jnp.asarray(x, jnp.float64), scheme.obs)
-    r_start = np.asarray(eqx.filter_jit(residuals)(start, obs64)).reshape(-1)
-    r_super, _ = builder.lin(builder.y_start)
+    start_arrays, start_static = eqx.partition(start, eqx.is_array)
+    r_start = np.asarray(_program(residuals, start_static, builder.obs)(start_arrays))
+    r_super, _ = builder.linearise(builder.y_start)
     if not np.allclose(r_start, r_super, rtol=0, atol=1e-12):
         raise ValueError(
             "some candidate terms change the pointing when their parameters are 0; build_model needs terms that do not"
@@ -531,10 +648,10 @@ def build_model(
     final_terms = [
         i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))
     ]
-    fitted = superset.with_values(jnp.asarray(state.y), "free")
+    fitted = superset.with_values(jax.device_put(state.y))
     model = start.restructured(terms=[fitted.terms[i] for i in final_terms])
-    cols = builder.cols(state.active)
-    free = superset.free_parameters
+    cols = np.flatnonzero(builder.mask(state.active))
+    params = superset.parameters
     rules = (
         f"add: |value/sigma| >= {add_threshold:g} and lower out-of-sample RMS; drop: |value/sigma| < {drop_threshold:g}; "
         f"{scheme.description}"
@@ -543,10 +660,10 @@ def build_model(
         model=model,
         path=tuple(path),
         stopped=stopped,
-        names=tuple(free[c].name for c in cols),
+        names=tuple(params[c].name for c in cols),
         values=state.y[cols],
         sigmas=state.sigmas[cols],
-        units=tuple(free[c].unit for c in cols),
+        units=tuple(params[c].unit for c in cols),
         rules=rules,
         skipped=tuple(skipped),
     )
