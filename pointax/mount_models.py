@@ -21,12 +21,10 @@ from .mounts import AltAzMount, EquatorialMount, TurntableMount, XYMount
 from .observations import Observations
 from .terms import turntable as turntable_terms
 from .terms.base import Term
-from .terms.sun_vector import estimate_zeros
-from .terms.xy import FAMILIES
 
 __all__ = ["AltAz", "Turntable", "XY", "Equatorial", "xy_family", "XY_FAMILIES"]
 
-XY_FAMILIES: tuple[str, ...] = tuple(FAMILIES)
+XY_FAMILIES: tuple[str, ...] = ("harmonic", "basic", "rotation", "linearised")
 """Names of the level-mount paper's model families: 'harmonic' (eqs 1-2, 13 + 13
 terms), 'basic' (eqs 3-4, 10 terms), 'rotation' (eqs 9-17, rigorous, 10 parameters),
 'linearised' (eqs 18-19, 16 + 10 terms)."""
@@ -48,6 +46,8 @@ def xy_family(name: str, values: Mapping[str, float] | None = None) -> tuple[Ter
         KeyError: for a value whose name is not a parameter of the family.
     """
     key = "linearised" if name == "linearized" else name
+    from .terms.xy import FAMILIES  # on first use: an alt-az fit never creates the X-Y classes
+
     if key not in FAMILIES:
         raise ValueError(f"unknown X-Y model family {name!r}; expected one of {', '.join(XY_FAMILIES)}")
     terms = FAMILIES[key]()
@@ -161,6 +161,8 @@ def Turntable(
     model = Model(TurntableMount(), terms, fixed)
     if start is not None:
         use = np.asarray(start.weight) > 0  # rows with weight 0 may hold NaN
+        from .terms.sun_vector import estimate_zeros
+
         alpha0, beta0 = estimate_zeros(np.asarray(start.encoder)[use], np.asarray(start.target)[use])
         names = set(model.parameter_names)
         zeros = {k: v for k, v in (("alpha0", alpha0), ("beta0", beta0)) if k in names}

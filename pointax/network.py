@@ -532,9 +532,7 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         from .distributed import fit_batch_distributed
 
         result = fit_batch_distributed(model, batch, client=client, chunk_size=chunk_size or len(members), **options)
-    # One transfer to NumPy, so per-site slices are cheap; the solver's result code stays a
-    # JAX array (equinox turns a NumPy *scalar* code into the message 'unknown').
-    result = eqx.tree_at(lambda r: r.result, jax.tree.map(np.asarray, result), result.result)
+    result = jax.tree.map(np.asarray, result)  # one transfer to NumPy: per-site slices are cheap
     statuses = site_statuses(result)
     out = {}
     for k, (entry, run) in enumerate(zip(members, runs)):

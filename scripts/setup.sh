@@ -18,6 +18,10 @@ if ! .venv/bin/python -c "import torch" 2>/dev/null; then
     pip_install "torch==2.13.0"
 fi
 pip_install -e ".[dev,vision,plot]"
+# Byte-compile the package, as a regular (non-editable) install does: where Python may
+# not write bytecode itself (PYTHONDONTWRITEBYTECODE), every command would otherwise
+# compile pointax's modules from source (about 0.08 s of each `pointax fit`).
+.venv/bin/python -m compileall -q pointax >/dev/null
 # Headless Chromium (Debian's package) renders the HTML report in tests/test_report.py;
 # best effort: where apt-get cannot install it (not root, no Debian), that test skips.
 if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then

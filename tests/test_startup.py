@@ -212,6 +212,7 @@ def test_the_light_copies_of_library_names_equal_the_library():
     from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
     from pointax.terms.heliostat import HELIOSTAT_DEFAULT
     from pointax.terms.sun_vector import TURNTABLE_MODELS
+    from pointax.mount_models import XY_FAMILIES
     from pointax.terms.xy import FAMILIES
 
     assert choices.SOLVERS == tuple(SOLVERS)
@@ -224,7 +225,7 @@ def test_the_light_copies_of_library_names_equal_the_library():
     assert choices.HELIOSTAT_DEFAULT == tuple(HELIOSTAT_DEFAULT)
     assert choices.FOCAL_SPOT_METHODS == tuple(FOCAL_SPOT_METHODS)
     assert choices.TURNTABLE_MODELS == tuple(TURNTABLE_MODELS)
-    assert choices.XY_FAMILIES == tuple(FAMILIES)
+    assert choices.XY_FAMILIES == XY_FAMILIES == tuple(FAMILIES)
     assert choices.SOLUTIONS == tuple(SOLUTIONS)
     assert choices.TPOINT_MOUNTS == tuple(PROCEDURE_MOUNTS) == tuple(TPOINT_MOUNTS)
     assert choices.BASIC_EQUATORIAL == tuple(terms.BASIC_EQUATORIAL)

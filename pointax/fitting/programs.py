@@ -1,12 +1,18 @@
-"""Traced fits kept on disk between processes, so that a fresh process does not trace
-again what an earlier one traced for the same model structure.
+"""Traced and compiled fits kept on disk between processes, so that a fresh process
+neither traces nor compiles again what an earlier one did for the same model structure.
 
 JAX's persistent compilation cache (:mod:`pointax.compilation_cache`) keeps XLA's
 compiled code, but every new process still traces the fit from Python first: 2-3 s
-of the 4-5 s a fresh ``pointax fit`` took with that cache warm. Here the traced
-program is exported (:mod:`jax.export`) and serialised beside that cache; a later process with the same model structure,
-options, data shapes and software loads it and hands it to XLA, whose compiled code the
-compilation cache then supplies.
+of the 4-5 s a fresh ``pointax fit`` took with that cache warm. Here each fit is kept
+twice, beside that cache:
+
+* the traced program, exported (:mod:`jax.export`, ``<key>.program``): portable, read
+  when the executable is missing or unreadable, and then compiled;
+* the compiled executable (:mod:`jax.experimental.serialize_executable`,
+  ``<key'>.executable``, ``key'`` adding the machine: backend, device, CPU features,
+  ``XLA_FLAGS``): a later process with the same structure, options, data shapes,
+  software and machine runs it without lowering the program or asking XLA's cache
+  (0.1-0.15 s of a 1.7 s warm ``pointax fit``).
 
 An entry's key is a hash of the program's name, the pytree structure (every node's
 class by module and qualified name, its static configuration) and shapes of its inputs,
@@ -21,14 +27,18 @@ default ``~/.cache/pointax/jax/programs``).
 Off until :func:`pointax.enable_compilation_cache` turns it on (the ``pointax``
 command does); a program that cannot be exported or stored (say, a term class defined
 inside a function, a result whose structure cannot be rebuilt) runs as an ordinary
-compiled function.
+compiled function. Executables are loaded with :mod:`pickle` and run as machine code:
+like XLA's own cache, the folder must be written by no one but its user.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib.metadata
+import math
 import os
+import pickle
+import platform
 import re
 import shutil
 import threading
@@ -40,7 +50,7 @@ import numpy as np
 
 __all__ = ["set_directory", "directory", "call", "clear", "STATS"]
 
-STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0}
+STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "executables_loaded": 0, "executables_stored": 0}
 """How programs were obtained in this process (for tests and benchmarks)."""
 
 _DIRECTORY: Path | None = None
@@ -95,7 +105,9 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> o
     if entry is None:
         expected = structure(*args, static)
         key = _key(name, in_tree, avals, static)
-        entry = (key is not None and _load(key, expected)) or _export(key, fn, in_tree, avals, static, expected)
+        entry = (key is not None and (_load_executable(key, expected) or _load(key, expected))) or _export(
+            key, fn, in_tree, avals, static, expected
+        )
         with _LOCK:
             _MEMORY[memory_key] = entry
     else:
@@ -168,6 +180,111 @@ def _path(key: str | None) -> Path | None:
     return None if _DIRECTORY is None or key is None else _DIRECTORY / f"{key}.program"
 
 
+_MACHINE: list = []
+
+
+def _machine() -> str:
+    """What a compiled executable also depends on: backend, device kind, the CPU's
+    features (XLA compiles for the host's instruction set), ``XLA_FLAGS``."""
+    if not _MACHINE:
+        device = jax.devices()[0]
+        cpu = ""
+        try:
+            with open("/proc/cpuinfo") as f:
+                cpu = next((line for line in f if line.startswith(("flags", "Features"))), "")
+        except OSError:
+            pass
+        parts = [device.platform, device.device_kind, platform.machine(), platform.processor(), cpu]
+        _MACHINE.append("\n".join(parts + [os.environ.get("XLA_FLAGS", "")]))
+    return _MACHINE[0]
+
+
+def _executable_path(key: str | None) -> Path | None:
+    if _DIRECTORY is None or key is None:
+        return None
+    return _DIRECTORY / f"{hashlib.sha256((key + _machine()).encode()).hexdigest()}.executable"
+
+
+def _load_executable(key: str, out_tree):
+    path = _executable_path(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        serialized, in_tree, flat_out_tree = pickle.loads(path.read_bytes())
+        if flat_out_tree.num_leaves != out_tree.num_leaves:
+            return None
+        if jax.default_backend() == "cpu":
+            _initialise_lapack()
+        compiled = _serializer().deserialize_and_load(serialized, in_tree, flat_out_tree)
+    except Exception:  # unreadable, from another writer: compile again
+        return None
+    STATS["executables_loaded"] += 1
+    return compiled, [out_tree]
+
+
+def _serializer():
+    from jax.experimental import serialize_executable
+
+    return serialize_executable
+
+
+def _initialise_lapack() -> None:
+    """Load the LAPACK routines the executable calls (from SciPy), as lowering a program
+    with linear algebra does: without it, a fit's executable would call null pointers."""
+    from jaxlib import lapack
+
+    lapack.prepare_lapack_call("getrf_ffi", np.dtype(np.float64))
+
+
+_OWN_COMPILATION = {"xla_embed_ir_in_executable": False}
+"""XLA's default, given explicitly: XLA's cache keys these compilations apart from any
+other of the same program (:func:`_compiled`)."""
+
+_CACHE_HITS = threading.local()
+_COMPILING = threading.Lock()
+_LISTENING: list = []
+
+
+def _count_cache_hit(event: str, **_) -> None:
+    if event == "/jax/compilation_cache/cache_hits" and getattr(_CACHE_HITS, "count", None) is not None:
+        _CACHE_HITS.count += 1
+
+
+def _compiled(key: str | None, exported):
+    """``exported``, compiled; its executable kept on disk where programs are.
+
+    An executable that XLA's persistent cache returned cannot be serialised again (its
+    machine code is not kept: the next process fails with "Function ... not found"), so
+    the executable is stored only from a compilation of its own, told apart in XLA's
+    cache by :data:`_OWN_COMPILATION` and checked by counting the cache's hits."""
+    path = _executable_path(key)
+    if path is None:
+        return jax.jit(exported.call)
+    if not _LISTENING:
+        jax.monitoring.register_event_listener(_count_cache_hit)
+        _LISTENING.append(True)
+    lowered = jax.jit(exported.call).lower(*exported.in_avals)
+    with _COMPILING:
+        # Nor does XLA's cache keep this compilation (it would be read, not compiled, when
+        # an executable is lost): its compile-time threshold raised while it runs.
+        threshold = jax.config.jax_persistent_cache_min_compile_time_secs
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", math.inf)
+        _CACHE_HITS.count = 0
+        try:
+            compiled = lowered.compile(compiler_options=_OWN_COMPILATION)
+            fresh = _CACHE_HITS.count == 0
+        finally:
+            _CACHE_HITS.count = None
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
+    if fresh:
+        try:
+            _write(path, pickle.dumps(_serializer().serialize(compiled)))
+            STATS["executables_stored"] += 1
+        except Exception:  # not serialisable, a full disk: the program alone is kept
+            pass
+    return compiled
+
+
 def _load(key: str, out_tree):
     path = _path(key)
     if path is None or not path.is_file():
@@ -179,7 +296,7 @@ def _load(key: str, out_tree):
     if len(exported.out_avals) != out_tree.num_leaves:
         return None
     STATS["loaded"] += 1
-    return jax.jit(exported.call), [out_tree]
+    return _compiled(key, exported), [out_tree]
 
 
 def _export(key: str, fn: Callable, in_tree, avals, static, expected):
@@ -202,20 +319,22 @@ def _export(key: str, fn: Callable, in_tree, avals, static, expected):
             break
         except ValueError as err:
             new = set(re.findall(r"custom_call @(\w+)", str(err))) - allowed
-            if not new:
-                break
+            if not new or any("callback" in n for n in new):
+                break  # a host callback holds this process's addresses: never stored
             allowed |= new
         except Exception:
             break
     if exported is None or not out_tree:
         # Not exportable: an ordinary compiled function (traced once per process; its
-        # first call records the result's structure).
+        # first call records the result's structure: a new function, as JAX would reuse
+        # the trace of ``flat`` from the export and not run it again).
         out_tree.clear()
-        return jax.jit(flat), out_tree
+        return jax.jit(lambda *leaves: flat(*leaves)), out_tree
     STATS["exported"] += 1
-    if out_tree[-1] == expected:
-        _store(key, exported)
-    return jax.jit(exported.call), out_tree
+    if out_tree[-1] != expected:
+        return jax.jit(exported.call), out_tree
+    _store(key, exported)
+    return _compiled(key, exported), out_tree
 
 
 def _store(key: str, exported) -> None:
@@ -223,11 +342,14 @@ def _store(key: str, exported) -> None:
     if path is None:
         return
     try:
-        blob = bytes(exported.serialize())
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_bytes(blob)
-        os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing
+        _write(path, bytes(exported.serialize()))
     except Exception:  # not serialisable, a full disk: keep it in memory only
         return
     STATS["stored"] += 1
+
+
+def _write(path: Path, blob: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+    tmp.write_bytes(blob)
+    os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing

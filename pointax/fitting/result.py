@@ -8,14 +8,13 @@ from typing import Any
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array, Bool, Float, Int
 
 from ..model import Model
 from ..units import ARCSEC, UNITS
 from .options import SOLVER_NAMES
 
-__all__ = ["FitResult", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_few_residuals", "too_little_data"]
+__all__ = ["FitResult", "SUCCESSFUL", "solver_status", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_few_residuals", "too_little_data"]
 
 CORRELATION_WARNING = 0.95
 """Reports warn about parameter pairs whose |correlation| exceeds this."""
@@ -23,6 +22,22 @@ CORRELATION_WARNING = 0.95
 ABSURD_SKY_RMS_DEG = 1.0
 """Reports warn when the Sky RMS after a fit exceeds this many degrees (3600"): real
 telescopes fit to arcseconds, sun trackers and heliostats to a few mrad (0.1 deg)."""
+
+
+SUCCESSFUL = 0
+""":attr:`FitResult.status` of a solver that met its tolerances (optimistix's
+``RESULTS.successful``)."""
+
+
+def solver_status(result) -> Int[Array, ""]:
+    """optimistix's result (an ``optx.RESULTS`` item, or the name of one) as the integer
+    :attr:`FitResult.status` holds: an array, so that a stored fit's result rebuilds
+    without importing optimistix (:mod:`pointax.fitting.programs`)."""
+    if isinstance(result, str):
+        import optimistix as optx
+
+        result = getattr(optx.RESULTS, result)
+    return jnp.asarray(result._value, jnp.int32)  # the item's index, which equinox keeps as `_value`
 
 
 def too_few_residuals(n_used, n_free: int):
@@ -67,7 +82,9 @@ class FitResult(eqx.Module):
         sky_rms, popn_sd: TPOINT's Sky RMS and population standard deviation, radians.
         iterations: solver steps taken.
         converged: whether the solver met its tolerances with finite residuals.
-        result: optimistix's result code.
+        status: optimistix's result code, an integer (:data:`SUCCESSFUL`: met its
+            tolerances); :attr:`result` is the ``optx.RESULTS`` item, :attr:`message`
+            the reason in words.
         degenerate: ``(M,)`` parameters lying in a (near-)null direction of the
             Jacobian: the data cannot separate them from the others flagged.
         outliers: ``(N,)`` observations a robust fit rejected (never for loss 'linear').
@@ -94,7 +111,7 @@ class FitResult(eqx.Module):
     popn_sd: Float[Array, ""]
     iterations: Int[Array, ""]
     converged: Bool[Array, ""]
-    result: optx.RESULTS
+    status: Int[Array, ""]
     degenerate: Bool[Array, " m"]
     outliers: Bool[Array, " n"]
     robust_scale: Float[Array, ""]
@@ -135,9 +152,19 @@ class FitResult(eqx.Module):
                 return too_little
         if not bool(jnp.all(jnp.isfinite(self.residuals))):
             return "residuals are not finite (NaN or inf in the data or the model)"
-        if self.result == optx.RESULTS.successful:
+        if bool(np.all(np.asarray(self.status) == SUCCESSFUL)):
             return "the solver stopped with non-finite values"
+        import optimistix as optx
+
         return optx.RESULTS[self.result] or "the solver did not converge"
+
+    @property
+    def result(self):
+        """optimistix's result, as an ``optx.RESULTS`` item (imports optimistix)."""
+        import optimistix as optx
+
+        item = type(optx.RESULTS.successful)  # equinox's EnumerationItem
+        return item(jnp.asarray(self.status), optx.RESULTS)
 
     def table(self) -> list[dict[str, Any]]:
         """One dict per fitted parameter: name, value, sigma, unit (display units)."""

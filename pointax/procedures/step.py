@@ -27,11 +27,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from .._x64 import float64
 from ..fitting import FitResult, embed, restrict
 from ..fitting import core
+from ..fitting.result import SUCCESSFUL
 from ..fitting.solo import prepare
 from ..fitting.statistics import normalised_weights
 from ..model import Model
@@ -64,7 +64,7 @@ def _step_core(model: Model, free, obs) -> tuple[FitResult, jax.Array]:
     ok = step.finite & step.step_finite
     result = core.fit_result(
         step.model, step.values, step.statistics, step.residuals, used, step.degenerate,
-        iterations=1, converged=ok, result=optx.RESULTS.successful, solver="gauss-newton", every_parameter=True,
+        iterations=1, converged=ok, status=SUCCESSFUL, solver="gauss-newton", every_parameter=True,
     )  # fmt: skip
     return result, step.change
 

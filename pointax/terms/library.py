@@ -4,41 +4,11 @@ the name lists they read (re-exported by :mod:`pointax.terms`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import importlib
+from collections.abc import Iterable, Iterator, Mapping
 
-from . import _NAMES, camera, equatorial, rigorous, sun_vector, xy
-from . import gpoint as gpoint_library
-from . import harmonic as harmonic_library
-from . import heliostat as heliostat_terms
+from . import _NAMES
 from .base import SkyPoint, Term, param, param_fields, param_unit
-from .camera import CameraMounting
-from .equatorial import (
-    BASIC_EQUATORIAL,
-    CH,
-    DAF,
-    DCEC,
-    DCES,
-    EQUATORIAL_FORMS,
-    EQUATORIAL_LINEAR_TERMS,
-    EQUATORIAL_RIGOROUS_TERMS,
-    FO,
-    HCEC,
-    HCES,
-    ID,
-    IH,
-    MA,
-    ME,
-    NP,
-)
-from .gpoint import (
-    GPOINT_ALTAZ_TERMS,
-    GPOINT_GEM_TERMS,
-    GpointExtra,
-    GpointGemTerm,
-    GpointTerm,
-    gpoint_extra,
-    gpoint_model_terms,
-)
 from .harmonic import (
     Harmonic,
     RigorousHarmonic,
@@ -46,7 +16,6 @@ from .harmonic import (
     is_harmonic_name,
     parse_harmonic,
 )
-from .heliostat import heliostat
 from .tpoint import (
     ACEC,
     ACES,
@@ -66,9 +35,70 @@ from .tpoint import (
     LinearTerm,
 )
 
+harmonic_library = importlib.import_module(".harmonic", __package__)
+
+# The equatorial, gpoint, sun-vector, X-Y, camera and heliostat terms load on first use
+# (PEP 562): building the alt-az terms of a ``pointax fit`` does not create their
+# classes (about 70 ms of every such process). Name -> (module, attribute; None: the module).
+_ON_FIRST_USE = {
+    **{
+        name: ("equatorial", name)
+        for name in (
+            "BASIC_EQUATORIAL", "CH", "DAF", "DCEC", "DCES", "EQUATORIAL_FORMS", "EQUATORIAL_LINEAR_TERMS",
+            "EQUATORIAL_RIGOROUS_TERMS", "FO", "HCEC", "HCES", "ID", "IH", "MA", "ME", "NP",
+        )
+    },
+    **{
+        name: ("gpoint", name)
+        for name in (
+            "GPOINT_ALTAZ_TERMS", "GPOINT_GEM_TERMS", "GpointExtra", "GpointGemTerm", "GpointTerm", "gpoint_extra",
+            "gpoint_model_terms",
+        )
+    },
+    "equatorial": ("equatorial", None),
+    "rigorous": ("rigorous", None),
+    "gpoint_library": ("gpoint", None),
+    "sun_vector": ("sun_vector", None),
+    "xy": ("xy", None),
+    "camera": ("camera", None),
+    "CameraMounting": ("camera", "CameraMounting"),
+    "heliostat_terms": ("heliostat", None),
+    "heliostat": ("heliostat", "heliostat"),
+}  # fmt: skip
+
+
+def __getattr__(name: str):
+    if name not in _ON_FIRST_USE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, attribute = _ON_FIRST_USE[name]
+    value = importlib.import_module(f".{module}", __package__)
+    value = value if attribute is None else getattr(value, attribute)
+    globals()[name] = value
+    return value
+
+
 __all__ = list(_NAMES)  # listed once, in pointax/terms/__init__.py (read without importing this)
 
-FORMS = {"linear": LINEAR_TERMS, "rigorous": rigorous.RIGOROUS_TERMS}
+class _Forms(Mapping):
+    """Term form name -> {TPOINT name: term class}; the rigorous classes load on first use."""
+
+    def __getitem__(self, form: str) -> dict:
+        if form == "linear":
+            return LINEAR_TERMS
+        if form == "rigorous":
+            from .rigorous import RIGOROUS_TERMS
+
+            return RIGOROUS_TERMS
+        raise KeyError(form)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(("linear", "rigorous"))
+
+    def __len__(self) -> int:
+        return 2
+
+
+FORMS: Mapping[str, dict] = _Forms()
 """Term form name -> {TPOINT name: term class}."""
 
 BASIC_ALTAZ = ("IA", "IE", "NPAE", "CA", "AN", "AW", "TF", "TX")
@@ -123,11 +153,13 @@ def tpoint(
     if mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {list(MOUNTS)}")
     equatorial_mount = mount == "equatorial"
-    forms = EQUATORIAL_FORMS if equatorial_mount else FORMS
+    if equatorial_mount:
+        from . import equatorial
+    forms = equatorial.EQUATORIAL_FORMS if equatorial_mount else FORMS
     if form not in forms:
         raise ValueError(f"unknown term form {form!r}; expected one of {sorted(forms)}")
     if spec is None:
-        spec = BASIC_EQUATORIAL if equatorial_mount else BASIC_ALTAZ
+        spec = equatorial.BASIC_EQUATORIAL if equatorial_mount else BASIC_ALTAZ
     library = forms[form]
     values = {k.upper() if isinstance(k, str) else k: v for k, v in (values or {}).items()}
     out = []
@@ -165,6 +197,8 @@ def gpoint_names(spec: str | Iterable[str], mount: str = "altaz") -> list[str]:
     names lower-case (``ia``), extras in canonical form (``az:sincos:az;el:2;2``),
     TPOINT names upper-case (``IA``). Use it to split a ``--fix`` list. ``mount``:
     'altaz' or 'gem', as :func:`gpoint_terms`."""
+    from . import gpoint as gpoint_library
+
     return gpoint_library.split_names(spec, mount)
 
 
@@ -206,6 +240,8 @@ def gpoint_terms(
     Raises:
         ValueError: for an unknown name or a malformed extra (the message says which).
     """
+    from . import gpoint as gpoint_library
+
     gmount = gpoint_library.check_gpoint_mount(mount)
     where = {} if gmount == "altaz" else {"mount": "equatorial", "latitude": latitude}
     tpoint([], form=form, **where)  # an unknown form raises even when no TPOINT name is given
@@ -232,6 +268,8 @@ def turntable(spec: str | Iterable[str] = "full", values: dict | None = None) ->
             separated by spaces or commas.
         values: optional starting values in radians, by parameter name.
     """
+    from . import sun_vector
+
     library = sun_vector.TURNTABLE_TERMS
     if isinstance(spec, str) and spec in sun_vector.TURNTABLE_MODELS:
         chosen = sun_vector.TURNTABLE_MODELS[spec]
