@@ -32,6 +32,7 @@ from ._x64 import float64
 from .fitting.core import result_from_covariance
 from .fitting.options import FitOptions
 from .fitting.ranges import range_warning, wrap_periodic
+from .fitting.xla_options import fast_compile_options
 from .fitting.residuals import check_convention
 from .fitting.result import FitResult, too_few_residuals
 from .fitting.solo import fit_model, options_from
@@ -264,30 +265,14 @@ def _along(cols: list, update) -> list:
     return [sum(update[k] * c[i] for k, c in enumerate(cols)) if cols else 0.0 for i in range(2)]
 
 
-FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
-"""XLA options for the fast path's compiled calls: on the CPU, XLA's older loop
-emitters compiled the fixed-step turntable fit in 1.6 s against 2.6 s with the fusion
-emitters, and ran it as fast; optimisation level 2 took another 0.1-0.2 s off
-(``benchmarks/batch_fit_notes.md``). Left out when this XLA does not know them."""
-
-
-@functools.cache
-def _compiler_options() -> dict:
-    try:
-        jax.jit(lambda x: x + 1.0, compiler_options=FAST_COMPILE_OPTIONS).lower(1.0).compile()
-    except Exception:  # an XLA without these options: its defaults
-        return {}
-    return FAST_COMPILE_OPTIONS
-
-
 @functools.cache
 def _compiled(fn, static_argnames: tuple[str, ...] = (), fast_options: bool = True):
-    options = _compiler_options() if fast_options else {}
+    options = fast_compile_options() if fast_options else {}
     return jax.jit(fn, static_argnames=static_argnames, compiler_options=options)
 
 
 def uses_fast_compile_options(model: Model) -> bool:
-    """Whether the fast path compiles ``model``'s fit with :data:`FAST_COMPILE_OPTIONS`:
+    """Whether the fast path compiles ``model``'s fit with :data:`pointax.fitting.xla_options.FAST_COMPILE_OPTIONS`:
     not for the exact (sky) residual form with sky offsets, whose fixed-point iterations
     ran twice as fast with XLA's default emitters (8 TPOINT terms, 1,024 sites: 0.51
     against 1.05 s per call) and compiled no slower."""

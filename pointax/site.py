@@ -90,6 +90,13 @@ class SiteData(eqx.Module):
         sky_basis: for ``residual_form="tpoint"`` (else None): per parameter of the
             terms with ``linear_sky_offset``, in model order, its sky offset per unit
             at the observed angles as two ``(n,)`` arrays.
+        library_trig: the sines and cosines of the sky form's fixed point (inside every
+            evaluation) from XLA's per-element library calls instead of
+            :func:`pointax.trig.sincos`'s vectorised polynomials. The polynomials are
+            several times faster over thousands of sites, but XLA copies them into every
+            consumer: the solo fit of the MMT run's 8 terms compiled to a 2.6 MB
+            executable with them against 1.6 MB without (loaded from disk by every
+            warm ``pointax fit``: 0.25 against 0.11 s). Values agree to rounding.
     """
 
     nominal: Float[Array, "n 2"]
@@ -99,6 +106,7 @@ class SiteData(eqx.Module):
     used: Bool[Array, " n"]
     observed: tuple[Float[Array, " n"], ...] | None = None
     sky_basis: tuple[tuple[Float[Array, " n"], Float[Array, " n"]], ...] | None = None
+    library_trig: bool = eqx.field(static=True, default=False)
 
 
 def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = None) -> SiteData:
@@ -306,7 +314,7 @@ def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
     v, angles = _chain_pointing(model, data)
     if not _has_sky_offsets(model, angles):
         return v
-    sky = _sky_position(model, _chain_angles(model, v, angles), data.nominal, data.trig)
+    sky = _sky_position(model, _chain_angles(model, v, angles), data)
     return _direction_at(model, sky[:, 0], sky[:, 1], data)
 
 
@@ -328,20 +336,23 @@ def _direction_at(model: Model, a1, a2, data: SiteData) -> list[Float[Array, " n
     arrays."""
     if type(model.mount).direction is SphericalMount.direction:
         # (sin a1 cos a2, cos a1 cos a2, sin a2) from the sines and cosines at hand.
-        p = _sky_point(a1, a2, data.nominal, data.trig)
+        p = _sky_point(a1, a2, data)
         return [p.sin_az * p.cos_el, p.cos_az * p.cos_el, p.sin_el]
     d = jax.vmap(model.mount.direction)(jnp.stack([a1, a2], axis=-1))
     return [d[:, 0], d[:, 1], d[:, 2]]
 
 
-def _sky_point(a1, a2, nominal, trig) -> SkyPoint:
-    """The :class:`SkyPoint` at the axis angles ``a1, a2`` (``(n,)`` each), its sines and cosines by angle
-    addition from those of the ``nominal`` angles (``trig``: cos and sin of axis 1, then
-    of axis 2) and the vectorised sine and cosine of the small differences: XLA on the
-    CPU calls the C library once per element for ``jnp.sin`` (the sky form's batched
-    fit ran 70 times slower than the TPOINT form's with them)."""
-    cos1, sin1, cos2, sin2 = trig
-    (s1, c1), (s2, c2) = sincos(a1 - nominal[:, 0]), sincos(a2 - nominal[:, 1])
+def _sky_point(a1, a2, data: SiteData) -> SkyPoint:
+    """The :class:`SkyPoint` at the axis angles ``a1, a2`` (``(n,)`` each), its sines and
+    cosines by angle addition from those of the site's nominal angles (``data.trig``)
+    and the sine and cosine of the small differences: vectorised
+    (:func:`pointax.trig.sincos`; XLA on the CPU calls the C library once per element
+    for ``jnp.sin``, and the sky form's batched fit ran 70 times slower than the TPOINT
+    form's with them) unless ``data.library_trig``."""
+    cos1, sin1, cos2, sin2 = data.trig
+    nominal = data.nominal
+    small = _library_sincos if data.library_trig else sincos
+    (s1, c1), (s2, c2) = small(a1 - nominal[:, 0]), small(a2 - nominal[:, 1])
     return SkyPoint(
         a1, a2, sin1 * c1 + cos1 * s1, cos1 * c1 - sin1 * s1, sin2 * c2 + cos2 * s2, cos2 * c2 - sin2 * s2
     )
@@ -358,7 +369,12 @@ def _sky_offsets(model: Model, point: SkyPoint):
     return total
 
 
-def _sky_position(model: Model, chain_angles, nominal, trig):
+def _library_sincos(x):
+    """``(sin x, cos x)`` from XLA's library functions (:attr:`SiteData.library_trig`)."""
+    return jnp.sin(x), jnp.cos(x)
+
+
+def _sky_position(model: Model, chain_angles, data: SiteData):
     """:meth:`pointax.Model.sky_position` over a site: the same fixed-point iterations
     (a loop, as there: unrolled, they tripled the compilation), with
     :func:`_sky_point`'s sines and cosines, on the two angles as separate ``(n,)``
@@ -366,15 +382,15 @@ def _sky_position(model: Model, chain_angles, nominal, trig):
     c1, c2 = chain_angles[:, 0], chain_angles[:, 1]
 
     def step(_, sky):
-        g1, g2 = _offsets_at(model, *sky, nominal, trig)
+        g1, g2 = _offsets_at(model, *sky, data)
         return c1 + g1, c2 + g2
 
     return jnp.stack(jax.lax.fori_loop(0, model.sky_iterations, step, (c1, c2)), axis=-1)
 
 
-def _offsets_at(model: Model, a1, a2, nominal, trig):
+def _offsets_at(model: Model, a1, a2, data: SiteData):
     """The terms' total sky offset at the axis angles ``a1, a2`` as two ``(n,)`` arrays."""
-    g = _sky_offsets(model, _sky_point(a1, a2, nominal, trig))
+    g = _sky_offsets(model, _sky_point(a1, a2, data))
     return g[:, 0], g[:, 1]
 
 
@@ -399,7 +415,7 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         raise ValueError("this SiteData was built for another model: rebuild it with the model")
     for (index, field), (u1, u2) in zip(linear, data.sky_basis):
         c = getattr(model.terms[index], field)
-        d1, d2 = d1 - c * u1, d2 - c * u2
+        d1, d2 = d1 - _times(c, u1), d2 - _times(c, u2)
     observed = None
     for term in model.terms:
         if term.linear_sky_offset:
@@ -410,6 +426,25 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         if off is not None:
             d1, d2 = d1 - off[..., 0], d2 - off[..., 1]
     return wrap_pi(d1) * cos2, d2
+
+
+@jax.custom_jvp
+def _times(c, u):
+    """``c * u`` for a parameter ``c`` and its unit offsets ``u``, exactly 0 where ``c``
+    is 0 even where ``u`` is not finite: a term at 0 adds nothing. TPOINT's terms are
+    singular somewhere (NPAE, AN, AW: ``tan E`` at the zenith, where the observed point
+    of a star exactly there has ``cos E = 0``); a fit whose model lacks such a term
+    carries it at 0 (:mod:`pointax.fitting.structure`), and ``0 * inf`` would make that
+    observation's residual NaN. Its derivative is ``dc * u + c * du``, again 0 wherever a
+    factor's tangent is 0 (a fixed parameter's)."""
+    return jnp.where(c == 0, jnp.zeros_like(u), c * u)
+
+
+@_times.defjvp
+def _times_jvp(primals, tangents):
+    c, u = primals
+    dc, du = tangents
+    return _times(c, u), _times(dc, u) + _times(du, c)
 
 
 def _boresight(mount) -> list:
@@ -500,7 +535,6 @@ def _sky_form_columns(model: Model, data: SiteData, params: Sequence[ParameterIn
     residuals' derivative with respect to the final ``s`` (2 x 2 per observation) then
     gives the columns. Differentiating the loop parameter by parameter instead repeats
     the whole loop, and ``G``, for every parameter."""
-    nominal, trig = data.nominal, data.trig
 
     def chain_of(m):
         v, angles = _chain_pointing(m, data)
@@ -508,7 +542,7 @@ def _sky_form_columns(model: Model, data: SiteData, params: Sequence[ParameterIn
         return angles[:, 0], angles[:, 1]
 
     def offsets(m, a1, a2):
-        return _offsets_at(m, a1, a2, nominal, trig)
+        return _offsets_at(m, a1, a2, data)
 
     def partials(fn, a1, a2):
         """``fn(a1, a2)`` and its derivatives with respect to ``a1`` and ``a2``."""

@@ -76,6 +76,52 @@ def test_site_residuals_and_columns_equal_the_plain_model(name):
         assert np.max(np.abs(got - np.asarray(jac))) < 1e-13 * max(1.0, np.max(np.abs(jac)))
 
 
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_the_fitting_problem_equals_the_plain_model(name):
+    """The solo fit's problem definition (pointax.fitting.problem: the site data with
+    XLA's library sines and cosines in the sky form's fixed point) gives the plain
+    per-observation model's residuals, unweighted, 0 for the unused row."""
+    from pointax.fitting.problem import define_problem
+
+    truth, enc = CASES[name]
+    obs = px.simulate(truth, enc, noise=px.arcsec(2), seed=2)
+    obs = px.Observations(obs.encoder, obs.target, _weights(len(obs)), obs.convention)
+    model = truth.with_values(np.asarray(truth.values()) * 1.1)
+    with jax.enable_x64(True):
+        problem = jax.jit(define_problem)(model, obs)
+        assert problem.data.library_trig
+        ours = np.asarray(jax.jit(lambda m, p: p.residuals(m))(model, problem))
+        reference = np.asarray(px.residuals(model, obs))
+    assert ours[3].tolist() == [0.0, 0.0]
+    assert np.max(np.abs(ours - reference)) < 1e-14
+
+
+def test_a_term_at_zero_adds_nothing_where_its_unit_offset_is_infinite():
+    """TPOINT's NPAE (dA = -tan E) has an infinite unit offset at a star exactly at the
+    zenith (the observed point's cos E is 0 there). At 0, as a fit carries the terms a
+    model lacks (pointax.fitting.structure), it must add exactly nothing there, in the
+    residuals and in the other parameters' derivatives (0 * inf would be NaN)."""
+    model = px.AltAz(px.terms.tpoint("IA IE NPAE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
+    obs = px.simulate(model, encoder_grid(), noise=px.arcsec(1), seed=3)
+    target = np.array(obs.target)
+    target[5] = [0.0, 0.0, 1.0]
+    obs = px.Observations(obs.encoder, target, convention=obs.convention)
+    reference = px.AltAz(px.terms.tpoint("IA IE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
+    with jax.enable_x64(True):
+        data, data_ref = site_data(model, obs), site_data(reference, obs)
+        assert not np.all(np.isfinite(np.asarray(data.sky_basis[2][0])))  # NPAE's unit offset there
+        ours = np.stack(jax.jit(site_residuals)(model, data), -1)
+        theirs = np.stack(jax.jit(site_residuals)(reference, data_ref), -1)
+        np.testing.assert_array_equal(ours, theirs)
+        jac = jax.jacfwd(lambda y: jnp.stack(site_residuals(model.with_values(jnp.append(y, 0.0)), data), -1))(
+            jnp.asarray(model.values()[:2])
+        )
+        jac_ref = jax.jacfwd(lambda y: jnp.stack(site_residuals(reference.with_values(y), data_ref), -1))(
+            jnp.asarray(reference.values())
+        )
+        np.testing.assert_array_equal(np.asarray(jac), np.asarray(jac_ref))
+
+
 def test_residual_function_derivative_with_respect_to_the_data():
     """The custom derivative also carries derivatives with respect to the data (targets):
     checked against central finite differences."""

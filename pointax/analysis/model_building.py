@@ -31,8 +31,10 @@ from jaxtyping import Array, Bool, Float
 
 from .._x64 import float64
 from ..fitting.core import linearised_change
+from ..fitting.problem import define_problem
 from ..fitting.residuals import residuals
 from ..fitting.statistics import normalised_weights, statistics
+from ..fitting.xla_options import fast_compile_options
 from ..model import Model
 from ..observations import Observations
 from ..progress import progress_bar
@@ -183,30 +185,16 @@ class _Steps(NamedTuple):
 def _linearise(model: Model, obs: Observations, y: Float[Array, " m"]) -> tuple[Array, Array]:
     """Residuals ``(n, 2)`` of ``model`` with the values ``y`` (every parameter) and their
     Jacobian ``(2n, m)`` over every parameter (rows ``2i, 2i + 1``: observation ``i``),
-    from one trace of the model (the residuals are the Jacobian's primal)."""
+    from one trace of the model (the residuals are the Jacobian's primal), on the
+    fitting core's problem definition (:mod:`pointax.fitting.problem`)."""
+    problem = define_problem(model, obs)
 
     def r(y):
-        flat = residuals(model.with_values(y), obs).reshape(-1)
+        flat = problem.residuals(model.with_values(y)).reshape(-1)
         return flat, flat
 
     jac, flat = jax.jacfwd(r, has_aux=True)(y)
     return flat.reshape(-1, 2), jac
-
-
-FAST_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
-"""XLA options for build_model's programs (those of :data:`pointax.batch.FAST_COMPILE_OPTIONS`):
-on the CPU, XLA's older loop emitters compiled the residuals and Jacobian of the MMT
-run's 44-term superset in 1.0 s against 2.6 s with the fusion emitters, and ran them as
-fast (3.4 ms a call). Left out when this XLA does not know them."""
-
-
-@functools.cache
-def _compiler_options() -> dict:
-    try:
-        jax.jit(lambda x: x + 1.0, compiler_options=FAST_OPTIONS).lower(1.0).compile()
-    except Exception:  # an XLA without these options: its defaults
-        return {}
-    return FAST_OPTIONS
 
 
 _PROGRAMS: dict[tuple, Any] = {}
@@ -225,7 +213,7 @@ def _program(fn, static: Model, obs: Observations):
     program = _PROGRAMS.get(key)
     if program is None:
         program = jax.jit(
-            lambda arrays, *args: fn(eqx.combine(arrays, static), obs, *args), compiler_options=_compiler_options()
+            lambda arrays, *args: fn(eqx.combine(arrays, static), obs, *args), compiler_options=fast_compile_options()
         )
         while len(_PROGRAMS) >= 8:
             del _PROGRAMS[next(iter(_PROGRAMS))]
@@ -268,7 +256,7 @@ def _steps(
 @functools.cache
 def _steps_program():
     """:func:`_steps`, compiled (one program for every build)."""
-    return jax.jit(_steps, compiler_options=_compiler_options())
+    return jax.jit(_steps, compiler_options=fast_compile_options())
 
 
 def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,13 +1,23 @@
 """The fitting core: one problem definition, one solver loop, one statistics routine.
 
 * :mod:`~pointax.fitting.options`: :class:`FitOptions`, the fit's options as one object.
-* :mod:`~pointax.fitting.residuals`: the residuals a fit minimises (both forms).
+* :mod:`~pointax.fitting.problem`: the problem definition every fit evaluates: what a
+  site's observations fix, prepared once, and one residual function (both forms).
+* :mod:`~pointax.fitting.residuals`: the plain residuals of the forward model (the
+  oracle the problem definition is tested against).
 * :mod:`~pointax.fitting.core`: the fit, pure JAX, over a mask of free parameters.
 * :mod:`~pointax.fitting.statistics`: TPOINT's statistics, for every kind of fit.
 * :mod:`~pointax.fitting.structure`: models embedded in a union of terms, so that
   USE / LOSE / FIX / MASK never recompile.
 * :mod:`~pointax.fitting.solo`: :func:`fit`, one run.
 * :mod:`~pointax.fitting.result`: :class:`FitResult`.
+* :mod:`~pointax.fitting.programs`: traced and compiled fits kept on disk.
+* :mod:`~pointax.fitting.xla_options`: compiler options for the larger programs.
+
+Batched fits (:mod:`pointax.batch`) run a fixed-step fast pass on the same problem
+definition and send the sites it does not settle to :func:`fit_model`; shared-parameter
+fits (:mod:`pointax.shared`) solve the joint problem on it; all of them take their
+statistics from :mod:`~pointax.fitting.statistics`.
 """
 
 from .._lazy import lazy_namespace
@@ -25,6 +35,8 @@ _EXPORTS = {
     "LOSS_NAMES": "options",
     "SOLVER_NAMES": "options",
     "FitOptions": "options",
+    "Problem": "problem",
+    "define_problem": "problem",
     "as_observations": "residuals",
     "check_convention": "residuals",
     "residuals": "residuals",
@@ -51,6 +63,8 @@ __all__ = [
     "DEGENERATE_RCOND",
     "FitOptions",
     "FitResult",
+    "Problem",
+    "define_problem",
     "LOSSES",
     "LOSS_NAMES",
     "RAYLEIGH_MEDIAN",

@@ -27,7 +27,7 @@ from jaxtyping import Array, Bool, Float
 from ..model import Model
 from ..observations import Observations
 from .options import SOLVER_NAMES, FitOptions
-from .residuals import residuals
+from .problem import Problem, define_problem
 from .result import SUCCESSFUL, FitResult, solver_status
 from .statistics import Statistics, normalised_weights, robust_sigma, statistics, svd_unit_covariance
 
@@ -93,8 +93,11 @@ def free_mask(model: Model) -> np.ndarray:
     return np.array([p.name not in model.fixed for p in model.parameters], bool)
 
 
-def least_squares(model: Model, free: Bool[Array, " m"], obs: Observations, weight, options: FitOptions, rho=None, c2=None):
-    """One optimistix solve of the ``free`` parameters, the others held at their values.
+def least_squares(
+    model: Model, free: Bool[Array, " m"], obs: Observations | Problem, weight, options: FitOptions, rho=None, c2=None
+):
+    """One optimistix solve of the ``free`` parameters, the others held at their values,
+    on the observations ``obs`` (or their :class:`Problem`, prepared once).
 
     ``rho`` (with the squared scale ``c2``) makes it a robust fit by rescaling each
     observation's residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to
@@ -103,11 +106,12 @@ def least_squares(model: Model, free: Bool[Array, " m"], obs: Observations, weig
     residuals the loss sees at ``y`` (times the square roots of ``weight``, rescaled by
     ``rho`` if given), the free entries of ``y`` only taking effect.
     """
+    problem = define_problem(model, obs)
     y0 = model.values("all")
     sqrt_w = jnp.sqrt(weight)[:, None]
 
     def scaled(y, _=None):
-        r = residuals(model.with_values(jnp.where(free, y, y0)), obs) * sqrt_w
+        r = problem.residuals(model.with_values(jnp.where(free, y, y0))) * sqrt_w
         if rho is None:
             return r
         z = jnp.sum(r**2, axis=-1)
@@ -134,6 +138,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     """
     free = jnp.asarray(free, bool)
     given = obs.weight > 0
+    problem = define_problem(model, obs)  # what the observations fix, once for every pass
     weight = normalised_weights(obs.weight, given)
     rho = LOSSES[options.loss]
     iterations = jnp.asarray(0)
@@ -146,7 +151,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         sqrt_w = jnp.sqrt(weight)[:, None]
 
         def weighted_sigma(m):
-            return robust_sigma(residuals(m, obs) * sqrt_w, given)
+            return robust_sigma(problem.residuals(m) * sqrt_w, given)
 
         # Two passes when the scale is automatic: the first starts from the scale of
         # the starting model's residuals (may be large), the second from the fit's.
@@ -155,21 +160,21 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         for _ in range(2 if auto else 1):
             # Soft margin c: two robust sigmas unless given.
             c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(options.loss_scale) ** 2, 1e-30)
-            sol, _ = least_squares(model, free, obs, weight, options, rho, c2)
+            sol, _ = least_squares(model, free, problem, weight, options, rho, c2)
             model = model.with_values(jnp.where(free, sol.value, model.values("all")))
             iterations = iterations + sol.stats["num_steps"]
             robust_ok = robust_ok & (solver_status(sol.result) == SUCCESSFUL)
             scale = weighted_sigma(model)
-        rw = residuals(model, obs) * sqrt_w
+        rw = problem.residuals(model) * sqrt_w
         outliers = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * scale)
     used = given & ~outliers
     weight = normalised_weights(obs.weight, used)
-    sol, _ = least_squares(model, free, obs, weight, options)
+    sol, _ = least_squares(model, free, problem, weight, options)
     # One Gauss-Newton step from the solver's answer (exact for residuals affine in the
     # parameters): the solver stops anywhere within its tolerances, and where it stops
     # depends on rounding, so without it the same model fitted inside unions of other
     # sizes (:mod:`pointax.fitting.structure`) differed by up to 1.4e-11 rad.
-    step = gauss_newton_step(model, free, obs, weight, used, jnp.where(free, sol.value, model.values("all")))
+    step = gauss_newton_step(model, free, problem, weight, used, jnp.where(free, sol.value, model.values("all")))
     return fit_result(
         step.model,
         step.values,
@@ -210,25 +215,28 @@ class LinearisedStep(NamedTuple):
     """The step itself was finite (else the values stayed)."""
 
 
-def gauss_newton_step(model: Model, free: Bool[Array, " m"], obs: Observations, weight, used, y) -> LinearisedStep:
+def gauss_newton_step(
+    model: Model, free: Bool[Array, " m"], obs: Observations | Problem, weight, used, y
+) -> LinearisedStep:
     """One linearised least-squares adjustment of the ``free`` parameters from the values
     ``y`` (``(M,)``, every parameter of ``model``): ``y - (J^T J)^-1 J^T r(y)`` with ``r``
     the residuals times the square roots of ``weight`` and ``J`` their Jacobian (the
     fixed parameters' columns are zero and kept out of the inverse,
     :func:`svd_unit_covariance`). The polishing step of :func:`fit_core`, and TPOINT's
     FIT (:mod:`pointax.procedures`)."""
+    problem = define_problem(model, obs)
     y0 = model.values("all")
     sqrt_w = jnp.sqrt(weight)[:, None]
 
     def weighted(y):
-        return (residuals(model.with_values(jnp.where(free, y, y0)), obs) * sqrt_w).reshape(-1)
+        return (problem.residuals(model.with_values(jnp.where(free, y, y0))) * sqrt_w).reshape(-1)
 
     change, unit_cov, degenerate = linearised_change(jax.jacfwd(weighted)(y), weighted(y), free)
     step_finite = jnp.all(jnp.isfinite(change))
     change = jnp.where(step_finite, change, 0.0)
     y = y + change
     fitted = model.with_values(y)
-    r = residuals(fitted, obs)  # outliers keep their residuals; statistics skip them
+    r = problem.residuals(fitted)  # outliers keep their residuals; statistics skip them
     rw = r * sqrt_w
     stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
     finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))

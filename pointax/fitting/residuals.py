@@ -1,8 +1,9 @@
 """The residuals a fit minimises: observed minus model on the sky, in either residual form.
 
 Written per observation on :meth:`pointax.Model.mount_direction`, the plain forward
-model; the batched fast path (:mod:`pointax.site`) evaluates the same residuals over a
-whole site at once and is tested against these.
+model: the readable definition and the oracle. Fits evaluate the same residuals over a
+whole site at once (:mod:`pointax.fitting.problem`, on :mod:`pointax.site`), tested
+against these.
 """
 
 from __future__ import annotations

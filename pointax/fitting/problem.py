@@ -1,0 +1,55 @@
+"""One problem definition for every fit: what one site's observations fix, prepared
+once, and one residual function of the model's parameters.
+
+The solo fit (:func:`pointax.fit`, leave-one-out, the comparison folds, TPOINT's FIT),
+the batched fit (:func:`pointax.fit_batch`) and the shared-parameter fit
+(:func:`pointax.fit_shared`) all evaluate their residuals here: the structured
+evaluation of :mod:`pointax.site` (nominal axis angles and their sines and cosines, the
+targets in the mount frame, TPOINT's unit sky offsets: computed once per fit, not once
+per step). :meth:`pointax.Model.mount_direction` and :func:`pointax.residuals` stay the
+plain forward model, the oracle these residuals are tested against
+(``tests/test_site.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ..model import Model
+from ..observations import Observations
+from ..site import SiteData, site_data, site_residuals
+
+__all__ = ["Problem", "define_problem"]
+
+
+class Problem(eqx.Module):
+    """One site's least-squares problem (a pytree: ``vmap`` it over sites).
+
+    Attributes:
+        data: what the observations fix (:class:`pointax.site.SiteData`), for the
+            model structure the problem was defined with; the parameter values are not
+            part of it.
+    """
+
+    data: SiteData
+
+    def residuals(self, model: Model) -> Float[Array, "n 2"]:
+        """Observed minus model, ``(n, 2)`` (cross-elevation, elevation) radians, in the
+        model's residual form, unweighted; 0 for observations with weight 0. Equal to
+        :func:`pointax.residuals` of the same model and observations (to rounding).
+        ``model`` must have the structure the problem was defined with (any values)."""
+        rx, ry = site_residuals(model, self.data, weighted=False)
+        return jnp.stack([rx, ry], axis=-1)
+
+
+def define_problem(model: Model, data: Observations | Problem) -> Problem:
+    """The :class:`Problem` of fitting ``model`` (its structure) to the observations
+    ``data`` (pure JAX); a :class:`Problem` is returned as it is."""
+    if isinstance(data, Problem):
+        return data
+    # One site's fit: the smaller program of XLA's own sines and cosines (SiteData.library_trig).
+    return Problem(dataclasses.replace(site_data(model, data), library_trig=True))
