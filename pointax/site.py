@@ -425,7 +425,7 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         off, _ = _per_observation(term.sky_offset, observed)
         if off is not None:
             d1, d2 = d1 - off[..., 0], d2 - off[..., 1]
-    return wrap_pi(d1) * cos2, d2
+    return wrap_pi(d1) * cos2, wrap_pi(d2)  # both wrapped, as pointax.residuals (an over-the-pole axis 2)
 
 
 @jax.custom_jvp

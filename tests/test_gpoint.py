@@ -413,7 +413,7 @@ def test_binary_file_and_parse_text(tmp_path):
 # sample gem.txt made by tests/data/gpoint/make_gem_sample.py (synthetic, see
 # PROVENANCE.txt there); numpy.loadtxt for the columns.
 
-from pointax.io.gpoint import (  # noqa: E402
+from pointax.io.gpoint_model import (  # noqa: E402
     format_gpoint_model,
     parse_gpoint_model,
     read_gpoint_model,

@@ -17,7 +17,7 @@ import pytest
 
 import pointax as px
 from pointax.io import ModelTerm, format_model, parse_model, read_model, write_model
-from pointax.io.tpoint import exact_decimal
+from pointax.io.tpoint_model import exact_decimal
 
 ARCSEC = math.pi / (180 * 3600)
 NAMES = "IA IE CA NPAE AN AW TF TX HACA2 HESE5 HSCA5CE8".split()

@@ -27,6 +27,10 @@ def _weights(n):
     return w
 
 
+def values_gem():
+    return {n: px.arcsec(v) for n, v in zip("IH ID CH NP MA ME".split(), RNG.normal(0, 60, 6))}
+
+
 def _cases():
     values = {n: px.arcsec(v) for n, v in zip(TPOINT8.split(), RNG.normal(0, 40, 8))}
     tt = px.Turntable("full").set(mu0=px.deg(0.07), nu0=px.deg(0.01), omega0=px.deg(-0.09), alpha0=px.deg(60.5), beta0=px.deg(165.9))
@@ -37,7 +41,17 @@ def _cases():
     xy = px.XY("basic")
     xy = xy.with_values(np.asarray(RNG.normal(0, px.arcsec(30), len(xy.parameters))))
     xy_enc = np.stack([RNG.uniform(-1.0, 1.0, 40), RNG.uniform(-0.9, 0.9, 40)], axis=1)
+    # A German equatorial mount, half the readings across the pier (declination axis past
+    # the pole, written as TheSkyX writes it: -180 to -90 deg), TPOINT's residual form.
+    gem = px.Equatorial(
+        px.terms.tpoint("IH ID CH NP MA ME", mount="equatorial", latitude=0.6, values=values_gem()), latitude=0.6,
+        residual_form="tpoint",
+    )
+    ha, dec = RNG.uniform(-1.2, 1.2, 40), RNG.uniform(-0.4, 1.2, 40)
+    flip = np.arange(40) % 2 == 1
+    gem_enc = np.stack([np.where(flip, ha + np.pi, ha), np.where(flip, -np.pi - dec, dec)], axis=1)
     return {
+        "equatorial (GEM, across the pier)": (gem, gem_enc),
         "turntable": (tt, enc),
         "altaz linear (sky offsets)": (linear, encoder_grid()),
         "altaz rigorous": (rigorous, encoder_grid()),

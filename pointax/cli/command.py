@@ -122,7 +122,7 @@ def _command_model(args):
 
     from .. import terms as term_library
     from ..io.errors import warn_input
-    from ..io.tpoint import read_model
+    from ..io.tpoint_model import read_model
     from ..mount_models import AltAz, Turntable
     from ..units import UNITS
 

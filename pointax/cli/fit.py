@@ -329,7 +329,7 @@ def _fit(args) -> int:
 
         format_of(args.plot)  # an unknown extension fails before the fit is printed
     if args.write_model:
-        from ..io.tpoint import refraction_arcsec, write_model
+        from ..io.tpoint_model import refraction_arcsec, write_model
 
         write_model(args.write_model, result, refraction=refraction_arcsec(outcome.run))
     if args.plot:

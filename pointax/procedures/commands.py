@@ -61,7 +61,7 @@ def cmd_indat(s: Session, args: list[str], line: Line) -> None:
 def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
     """INMOD FILE: read a TPOINT model file: its terms, values and fixed terms replace
     the current model."""
-    from ..io.tpoint import read_model
+    from ..io.tpoint_model import read_model
 
     if len(args) != 1:
         raise ValueError("INMOD needs one file name")
@@ -81,7 +81,7 @@ def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
     """OUTMOD FILE: write the model as a TPOINT model file (with N, Sky RMS and sigmas
     of the last FIT when nothing changed since; the refraction constants of the model
     file INMOD read, else those of the run's weather)."""
-    from ..io.tpoint import refraction_arcsec, write_model
+    from ..io.tpoint_model import refraction_arcsec, write_model
 
     if len(args) != 1:
         raise ValueError("OUTMOD needs one file name")
