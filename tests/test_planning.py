@@ -90,6 +90,39 @@ def test_greedy_against_brute_force_3_of_8():
     assert ratios.max() <= 1.3
 
 
+def test_design_bound_against_brute_force_and_scipy():
+    """design_bound's lower bound lies below the best exact design of n (exhaustive, with
+    and without repeats) and the continuous design it reaches matches an independent
+    convex solve (scipy's SLSQP over the weights) to 1e-6."""
+    import scipy.optimize
+
+    from pointax.planning.design import design_bound
+
+    rng = np.random.default_rng(5)
+    for trial in range(4):
+        a = rng.normal(size=(10, 2, 3)) * rng.uniform(0.2, 2.0, (10, 1, 1))
+        j = rng.normal(size=(30, 2, 3))
+        g = np.einsum("kip,kiq->pq", j, j) / 30
+        n = 4
+        best = min(
+            _objective(a, g, s)
+            for s in itertools.combinations_with_replacement(range(10), n)
+            if np.linalg.matrix_rank(np.einsum("nip,niq->pq", a[list(s)], a[list(s)])) == 3
+        )
+        bound, achieved = design_bound(a, g, n)
+        assert bound <= math.sqrt(best) * (1 + 1e-12)
+        assert bound <= achieved * (1 + 1e-12) and achieved <= bound * (1 + 1e-6)
+
+        def phi(w):
+            return np.trace(g @ np.linalg.inv(np.einsum("n,nip,niq->pq", w, a, a)))
+
+        ref = scipy.optimize.minimize(
+            phi, np.full(10, 0.1), method="SLSQP", bounds=[(1e-12, 1)] * 10,
+            constraints=[{"type": "eq", "fun": lambda w: np.sum(w) - 1}], options={"ftol": 1e-14, "maxiter": 500},
+        )  # fmt: skip
+        assert achieved == pytest.approx(math.sqrt(ref.fun / n), rel=1e-6)
+
+
 def test_d_optimal_against_brute_force():
     rng = np.random.default_rng(1)
     a = rng.normal(size=(8, 2, 3))

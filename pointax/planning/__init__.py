@@ -8,8 +8,8 @@ every direction, and choose the observations that pin the model down best.
   pointing Jacobian ``d offset / d parameters``.
 * :mod:`~pointax.planning.accuracy`: :func:`predicted_accuracy`, the
   :class:`PredictedAccuracy` over directions, its sky summary and sky map; :func:`sky_grid`.
-* :mod:`~pointax.planning.design`: greedy I-/D-optimal selection, rank-two updates,
-  one compiled call.
+* :mod:`~pointax.planning.design`: greedy I-/D-optimal selection (rank-two updates,
+  one compiled call), and the bound no selection of n can beat (:func:`design_bound`).
 * :mod:`~pointax.planning.candidates`: stars at a site and time (away from the Sun and
   the Moon), placed again at their scheduled times; sun positions over days; grids.
 * :mod:`~pointax.planning.ordering`: a short observing order (nearest neighbour + 2-opt).
@@ -27,7 +27,7 @@ from .candidates import (
     star_candidates,
     sun_candidates,
 )
-from .design import CRITERIA, STARTS, greedy_design
+from .design import CRITERIA, STARTS, design_bound, greedy_design
 from .jacobian import pointing_jacobian, readings_for
 from .ordering import order_path
 from .plan import SKY_CHOICES, Plan, plan_run
@@ -40,6 +40,7 @@ __all__ = [
     "Plan",
     "PredictedAccuracy",
     "StarRules",
+    "design_bound",
     "greedy_design",
     "grid_candidates",
     "information_matrix",

@@ -39,13 +39,17 @@ accuracy (those use the chosen observations only).
 from __future__ import annotations
 
 import functools
+import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-__all__ = ["CRITERIA", "STARTS", "greedy_design", "exchange_design", "design_scores", "DEFAULT_RIDGE", "EXCHANGE_PASSES"]
+__all__ = [
+    "CRITERIA", "STARTS", "greedy_design", "exchange_design", "design_scores", "design_bound", "DEFAULT_RIDGE",
+    "EXCHANGE_PASSES", "DESIGN_BOUND_ITERATIONS",
+]  # fmt: skip
 
 CRITERIA = ("i-optimal", "d-optimal")
 """Criteria of :func:`greedy_design` and :func:`pointax.plan_run`."""
@@ -224,3 +228,74 @@ def exchange_design(
     idx, swaps = _exchange(a, jnp.asarray(g, jnp.float64), jnp.asarray(m0), jnp.asarray(available), jnp.asarray(padded), n,
                            int(passes), criterion)  # fmt: skip
     return np.asarray(idx)[:n], int(swaps)
+
+
+DESIGN_BOUND_ITERATIONS = 3000
+"""Multiplicative steps of :func:`design_bound` (the gap it reports says how far it got)."""
+
+
+@functools.partial(jax.jit, static_argnames=("iterations",))
+def _continuous_design(a, g, available, iterations: int):
+    """The multiplicative algorithm for the continuous I-optimal design (see
+    :func:`design_bound`): ``(weights, best lower bound, Phi at the last weights)``."""
+    n_cand, _, p = a.shape
+    w = available / jnp.sum(available)
+
+    def phi_and_d(w):
+        m = jnp.einsum("n,nip,niq->pq", w, a, a)
+        chol = jnp.linalg.cholesky(m)
+        minv = jax.scipy.linalg.cho_solve((chol, True), jnp.eye(p, dtype=a.dtype))
+        b = jnp.einsum("nip,pq->niq", a, minv)
+        d = jnp.einsum("nip,pq,niq->n", b, g, b)  # -dPhi/dw_n
+        return jnp.trace(g @ minv), jnp.where(available > 0, d, 0.0)
+
+    def body(_, carry):
+        w, lower = carry
+        phi, d = phi_and_d(w)
+        lower = jnp.maximum(lower, 2.0 * phi - jnp.max(d))
+        w = w * jnp.sqrt(d / phi)
+        return w / jnp.sum(w), lower
+
+    w, lower = jax.lax.fori_loop(0, iterations, body, (w, jnp.asarray(-jnp.inf, a.dtype)))
+    phi, d = phi_and_d(w)
+    return w, jnp.maximum(lower, 2.0 * phi - jnp.max(d)), phi
+
+
+def design_bound(
+    a: Float[np.ndarray, "N 2 p"],
+    g: Float[np.ndarray, "p p"],
+    n: int,
+    *,
+    available: Bool[np.ndarray, " N"] | None = None,
+    iterations: int = DESIGN_BOUND_ITERATIONS,
+) -> tuple[float, float]:
+    """The smallest sky-averaged predicted pointing RMS that *any* ``n`` of the
+    candidates could give, bounded from below: ``(bound, achieved)``, both
+    ``sqrt(trace(G M^-1))`` in the units of ``sqrt(g)`` (radians for
+    :func:`pointax.planning.sky_average`'s ``G`` and ``a`` in units of the noise).
+
+    Any ``n`` observations ``S`` (chosen once or repeated) give ``M = sum_S A_i^T A_i =
+    n M(w_S)`` with ``w_S`` the design measure putting ``1/n`` on each, so
+    ``trace(G M^-1) >= min_w trace(G M(w)^-1) / n`` over every measure ``w`` on the
+    candidates (the continuous, or approximate, design problem, which is convex). That
+    minimum is approached by the multiplicative algorithm ``w_i <- w_i sqrt(d_i /
+    Phi)`` (``Phi = trace(G M(w)^-1)``, ``d_i = trace(A_i M^-1 G M^-1 A_i^T) = -dPhi/dw_i``)
+    and bounded from below at every step by convexity: ``Phi* >= 2 Phi(w) - max_i d_i``
+    (the tangent plane at ``w``, whose weights sum to 1, and ``sum_i w_i d_i = Phi(w)``).
+    ``achieved`` is the continuous design's own value after the iterations (the
+    bound's gap to it says how far the iterations got; an exact design of ``n``
+    observations may need to round the weights and do a little worse).
+
+    Use it to tell whether a target for a plan is reachable at all from a candidate set.
+
+    Raises:
+        ValueError: when the candidates cannot determine every parameter (``M`` of the
+            uniform measure is singular).
+    """
+    a = jnp.asarray(a, jnp.float64)
+    available = np.ones(a.shape[0], bool) if available is None else np.asarray(available, bool)
+    w, lower, phi = _continuous_design(a, jnp.asarray(g, jnp.float64), jnp.asarray(available, jnp.float64), int(iterations))
+    lower, phi = float(lower), float(phi)
+    if not (np.isfinite(lower) and np.isfinite(phi)):
+        raise ValueError("the candidates cannot determine every parameter of the model (singular information)")
+    return math.sqrt(max(lower, 0.0) / n), math.sqrt(phi / n)
