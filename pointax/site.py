@@ -60,6 +60,7 @@ __all__ = [
     "site_geometry",
     "observed_point",
     "with_sky_basis",
+    "without_pinned_singularities",
     "site_residuals",
     "residual_columns",
     "residuals_and_columns",
@@ -179,6 +180,26 @@ def is_affine(model: Model) -> bool:
     return model.residual_form == "tpoint" and all(
         model.terms[p.term].linear_sky_offset for p in model.free_parameters
     )
+
+
+def without_pinned_singularities(model: Model, data: SiteData, free: Bool[Array, " m"]) -> SiteData:
+    """``data`` with the unit offsets of the parameters that stay at 0 in a fit (not
+    ``free`` and 0 in ``model``) set to 0 where they are not finite: such a parameter adds
+    nothing, but ``0 * inf`` would make the observation's residual NaN. TPOINT's terms are
+    singular somewhere (NPAE, AN, AW: ``tan E`` at the zenith, where the observed point of
+    a star exactly there has ``cos E = 0``), and a fit carries at 0 the terms its model
+    lacks (:mod:`pointax.fitting.structure`). Done once per fit, so the residuals cost
+    nothing more. ``free``: ``(M,)`` over ``model.parameters``."""
+    if data.sky_basis is None:
+        return data
+    values = model.values("all")
+    position = {(p.term, p.field): k for k, p in enumerate(model.parameters)}
+    basis = []
+    for key, (u1, u2) in zip(_linear_sky_parameters(model), data.sky_basis):
+        k = position[key]
+        pinned = ~free[k] & (values[k] == 0)
+        basis.append(tuple(jnp.where(pinned & ~jnp.isfinite(u), 0.0, u) for u in (u1, u2)))
+    return dataclasses.replace(data, sky_basis=tuple(basis))
 
 
 def _linear_sky_parameters(model: Model) -> list[tuple[int, str]]:
@@ -415,7 +436,7 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         raise ValueError("this SiteData was built for another model: rebuild it with the model")
     for (index, field), (u1, u2) in zip(linear, data.sky_basis):
         c = getattr(model.terms[index], field)
-        d1, d2 = d1 - _times(c, u1), d2 - _times(c, u2)
+        d1, d2 = d1 - c * u1, d2 - c * u2
     observed = None
     for term in model.terms:
         if term.linear_sky_offset:
@@ -426,25 +447,6 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         if off is not None:
             d1, d2 = d1 - off[..., 0], d2 - off[..., 1]
     return wrap_pi(d1) * cos2, wrap_pi(d2)  # both wrapped, as pointax.residuals (an over-the-pole axis 2)
-
-
-@jax.custom_jvp
-def _times(c, u):
-    """``c * u`` for a parameter ``c`` and its unit offsets ``u``, exactly 0 where ``c``
-    is 0 even where ``u`` is not finite: a term at 0 adds nothing. TPOINT's terms are
-    singular somewhere (NPAE, AN, AW: ``tan E`` at the zenith, where the observed point
-    of a star exactly there has ``cos E = 0``); a fit whose model lacks such a term
-    carries it at 0 (:mod:`pointax.fitting.structure`), and ``0 * inf`` would make that
-    observation's residual NaN. Its derivative is ``dc * u + c * du``, again 0 wherever a
-    factor's tangent is 0 (a fixed parameter's)."""
-    return jnp.where(c == 0, jnp.zeros_like(u), c * u)
-
-
-@_times.defjvp
-def _times_jvp(primals, tangents):
-    c, u = primals
-    dc, du = tangents
-    return _times(c, u), _times(dc, u) + _times(du, c)
 
 
 def _boresight(mount) -> list:

@@ -110,11 +110,14 @@ def test_the_fitting_problem_equals_the_plain_model(name):
     assert np.max(np.abs(ours - reference)) < 1e-14
 
 
-def test_a_term_at_zero_adds_nothing_where_its_unit_offset_is_infinite():
+def test_a_pinned_zero_adds_nothing_where_its_unit_offset_is_infinite():
     """TPOINT's NPAE (dA = -tan E) has an infinite unit offset at a star exactly at the
-    zenith (the observed point's cos E is 0 there). At 0, as a fit carries the terms a
-    model lacks (pointax.fitting.structure), it must add exactly nothing there, in the
-    residuals and in the other parameters' derivatives (0 * inf would be NaN)."""
+    zenith (the observed point's cos E is 0 there). Held at 0 and not fitted, as a fit
+    carries the terms a model lacks (pointax.fitting.structure), it must add exactly
+    nothing there, in the residuals and the fitted parameters' derivatives (0 * inf
+    would be NaN); fitted, it stays honest (not finite)."""
+    from pointax.fitting.problem import define_problem
+
     model = px.AltAz(px.terms.tpoint("IA IE NPAE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
     obs = px.simulate(model, encoder_grid(), noise=px.arcsec(1), seed=3)
     target = np.array(obs.target)
@@ -122,18 +125,18 @@ def test_a_term_at_zero_adds_nothing_where_its_unit_offset_is_infinite():
     obs = px.Observations(obs.encoder, target, convention=obs.convention)
     reference = px.AltAz(px.terms.tpoint("IA IE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
     with jax.enable_x64(True):
-        data, data_ref = site_data(model, obs), site_data(reference, obs)
-        assert not np.all(np.isfinite(np.asarray(data.sky_basis[2][0])))  # NPAE's unit offset there
-        ours = np.stack(jax.jit(site_residuals)(model, data), -1)
-        theirs = np.stack(jax.jit(site_residuals)(reference, data_ref), -1)
-        np.testing.assert_array_equal(ours, theirs)
-        jac = jax.jacfwd(lambda y: jnp.stack(site_residuals(model.with_values(jnp.append(y, 0.0)), data), -1))(
-            jnp.asarray(model.values()[:2])
-        )
-        jac_ref = jax.jacfwd(lambda y: jnp.stack(site_residuals(reference.with_values(y), data_ref), -1))(
+        assert not np.all(np.isfinite(np.asarray(site_data(model, obs).sky_basis[2][0])))  # NPAE's, there
+        pinned = define_problem(model, obs, np.array([True, True, False]))
+        ours = pinned.residuals(model)
+        theirs = define_problem(reference, obs, np.array([True, True])).residuals(reference)
+        np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+        jac = jax.jacfwd(lambda y: pinned.residuals(model.with_values(jnp.append(y, 0.0))))(jnp.asarray(model.values()[:2]))
+        jac_ref = jax.jacfwd(lambda y: define_problem(reference, obs).residuals(reference.with_values(y)))(
             jnp.asarray(reference.values())
         )
         np.testing.assert_array_equal(np.asarray(jac), np.asarray(jac_ref))
+        fitted = define_problem(model, obs, np.array([True, True, True])).residuals(model)
+        assert not np.all(np.isfinite(np.asarray(fitted)[5]))
 
 
 def test_residual_function_derivative_with_respect_to_the_data():

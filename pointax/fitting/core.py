@@ -106,7 +106,7 @@ def least_squares(
     residuals the loss sees at ``y`` (times the square roots of ``weight``, rescaled by
     ``rho`` if given), the free entries of ``y`` only taking effect.
     """
-    problem = define_problem(model, obs)
+    problem = define_problem(model, obs, free)
     y0 = model.values("all")
     sqrt_w = jnp.sqrt(weight)[:, None]
 
@@ -138,7 +138,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     """
     free = jnp.asarray(free, bool)
     given = obs.weight > 0
-    problem = define_problem(model, obs)  # what the observations fix, once for every pass
+    problem = define_problem(model, obs, free)  # what the observations fix, once for every pass
     weight = normalised_weights(obs.weight, given)
     rho = LOSSES[options.loss]
     iterations = jnp.asarray(0)
@@ -224,7 +224,7 @@ def gauss_newton_step(
     fixed parameters' columns are zero and kept out of the inverse,
     :func:`svd_unit_covariance`). The polishing step of :func:`fit_core`, and TPOINT's
     FIT (:mod:`pointax.procedures`)."""
-    problem = define_problem(model, obs)
+    problem = define_problem(model, obs, free)
     y0 = model.values("all")
     sqrt_w = jnp.sqrt(weight)[:, None]
 
@@ -251,7 +251,7 @@ def linearised_change(
     every parameter; the columns of the others are ignored): ``-(J^T J)^-1 J^T r``, 0 for
     parameters not free, with ``(J^T J)^-1`` and the degenerate parameters from
     :func:`svd_unit_covariance`. The linear algebra of :func:`gauss_newton_step`."""
-    jac = jac * free
+    jac = jnp.where(free, jac, 0.0)  # (not jac * free: an unused column may hold inf)
     unit_cov, degenerate = svd_unit_covariance(jac, free)
     change = jnp.where(free, -(unit_cov @ (jac.T @ weighted)), 0.0)
     return change, unit_cov, degenerate

@@ -17,11 +17,11 @@ import dataclasses
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Bool, Float
 
 from ..model import Model
 from ..observations import Observations
-from ..site import SiteData, site_data, site_residuals
+from ..site import SiteData, site_data, site_residuals, without_pinned_singularities
 
 __all__ = ["Problem", "define_problem"]
 
@@ -46,10 +46,16 @@ class Problem(eqx.Module):
         return jnp.stack([rx, ry], axis=-1)
 
 
-def define_problem(model: Model, data: Observations | Problem) -> Problem:
+def define_problem(model: Model, data: Observations | Problem, free: Bool[Array, " m"] | None = None) -> Problem:
     """The :class:`Problem` of fitting ``model`` (its structure) to the observations
-    ``data`` (pure JAX); a :class:`Problem` is returned as it is."""
+    ``data`` (pure JAX); a :class:`Problem` is returned as it is. ``free``: ``(M,)``
+    which of ``model.parameters`` the fit adjusts, if known: the others that are 0 then
+    add exactly nothing, even where their term is singular
+    (:func:`pointax.site.without_pinned_singularities`)."""
     if isinstance(data, Problem):
         return data
     # One site's fit: the smaller program of XLA's own sines and cosines (SiteData.library_trig).
-    return Problem(dataclasses.replace(site_data(model, data), library_trig=True))
+    site = dataclasses.replace(site_data(model, data), library_trig=True)
+    if free is not None:
+        site = without_pinned_singularities(model, site, jnp.asarray(free, bool))
+    return Problem(site)
