@@ -91,13 +91,13 @@ class SiteData(eqx.Module):
         sky_basis: for ``residual_form="tpoint"`` (else None): per parameter of the
             terms with ``linear_sky_offset``, in model order, its sky offset per unit
             at the observed angles as two ``(n,)`` arrays.
-        library_trig: the sines and cosines of the sky form's fixed point (inside every
-            evaluation) from XLA's per-element library calls instead of
-            :func:`pointax.trig.sincos`'s vectorised polynomials. The polynomials are
-            several times faster over thousands of sites, but XLA copies them into every
-            consumer: the solo fit of the MMT run's 8 terms compiled to a 2.6 MB
-            executable with them against 1.6 MB without (loaded from disk by every
-            warm ``pointax fit``: 0.25 against 0.11 s). Values agree to rounding.
+        library_trig: sines and cosines (of the nominal angles, and of the sky form's
+            fixed point inside every evaluation) from XLA's per-element library calls
+            instead of :func:`pointax.trig.sincos`'s vectorised polynomials. The
+            polynomials are several times faster over thousands of sites, but XLA copies
+            them into every consumer: the solo fit of the MMT run's 8 terms compiled to a
+            2.6 MB executable with them against 1.6 MB without (loaded from disk by every
+            warm ``pointax fit``: 0.25 against 0.11-0.15 s). Values agree to rounding.
     """
 
     nominal: Float[Array, "n 2"]
@@ -110,7 +110,9 @@ class SiteData(eqx.Module):
     library_trig: bool = eqx.field(static=True, default=False)
 
 
-def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = None) -> SiteData:
+def site_data(
+    model: Model, obs: Observations, used: Bool[Array, " n"] | None = None, library_trig: bool = False
+) -> SiteData:
     """Precompute one site's :class:`SiteData` (pure JAX; ``vmap`` over sites).
 
     Args:
@@ -118,8 +120,9 @@ def site_data(model: Model, obs: Observations, used: Bool[Array, " n"] | None = 
         obs: the site's observations, ``(n, ...)``. Rows with weight 0 may hold NaN.
         used: which observations to fit (default: weight > 0); the weights are
             normalised to mean 1 over these.
+        library_trig: see :attr:`SiteData.library_trig` (one site's fit: True).
     """
-    data, target = site_geometry(model, obs, used)
+    data, target = site_geometry(model, obs, used, library_trig)
     return with_sky_basis(model, data, None if target is None else observed_point(model, data, target))
 
 
@@ -148,7 +151,7 @@ def with_sky_basis(model: Model, data: SiteData, point: SkyPoint | None) -> Site
 
 
 def site_geometry(
-    model: Model, obs: Observations, used: Bool[Array, " n"] | None = None
+    model: Model, obs: Observations, used: Bool[Array, " n"] | None = None, library_trig: bool = False
 ) -> tuple[SiteData, Float[Array, "n 3"] | None]:
     """The first part of :func:`site_data`: everything but what
     :func:`with_sky_basis` adds, and the observed directions in the mount frame (for
@@ -165,11 +168,13 @@ def site_geometry(
     trig = target_trig = None
     tpoint = model.residual_form == "tpoint"
     if not tpoint or _rotated(model, nominal):
-        (sin1, cos1), (sin2, cos2) = sincos(nominal[:, 0]), sincos(nominal[:, 1])
+        sines = _library_sincos if library_trig else sincos
+        (sin1, cos1), (sin2, cos2) = sines(nominal[:, 0]), sines(nominal[:, 1])
         trig = (cos1, sin1, cos2, sin2)
     if not tpoint:
         target_trig = azel_trig(target)
-    return SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None), target if tpoint else None
+    data = SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None, library_trig)
+    return data, target if tpoint else None
 
 
 def is_affine(model: Model) -> bool:

@@ -250,6 +250,49 @@ def test_a_fresh_process_loads_the_traced_fit(tmp_path):
     assert not folder.exists()
 
 
+def test_pointax_fit_prefetches_the_executable_of_its_last_fit_of_the_file(tmp_path):
+    """`pointax fit FILE` starts loading the executable its last run of FILE used, in a
+    background thread, before it has read the file (counted, not timed); the fit takes it
+    only when it is the program asked for: with other terms (another union, so another
+    program) the prefetched one is left unused, the right one is loaded, and the numbers
+    are those of a process without prefetch."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import contextlib, io, json, sys\n"
+        "from pointax.cli import main\n"
+        "from pointax.fitting import programs\n"
+        "out = io.StringIO()\n"
+        "with contextlib.redirect_stdout(out):\n"
+        "    code = main(sys.argv[1:])\n"
+        "print(json.dumps({'code': code, 'stats': programs.STATS, 'fit': json.loads(out.getvalue())}))\n"
+    )
+    env = {**os.environ, "POINTAX_JAX_CACHE": str(tmp_path / "cache")}
+
+    def run_once(*terms):
+        argv = ["fit", str(MMT_DAT), "--azimuth", "S-E", "--json", *terms]
+        proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, env=env, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        out = json.loads(proc.stdout.splitlines()[-1])
+        assert out["code"] == 0
+        return out["stats"], out["fit"]
+
+    stats, first = run_once()
+    assert stats["executables_stored"] == 1 and stats["prefetch_started"] == 0 and stats["prefetched"] == 0
+    stats, second = run_once()
+    assert stats["prefetch_started"] == 1 and stats["prefetched"] == 1 and stats["executables_loaded"] == 1 and stats["exported"] == 0
+    assert second["terms"] == first["terms"] and second["sky_rms_arcsec"] == first["sky_rms_arcsec"]
+    other = ("--terms", "IA IE CA HACA2")  # a harmonic: a union of its own, another program
+    stats, alone = run_once(*other)
+    assert stats["prefetch_started"] == 1 and stats["prefetched"] == 0  # the prefetched one unused
+    assert stats["exported"] == 1
+    stats, again = run_once(*other)
+    assert stats["prefetched"] == 1 and again["terms"] == alone["terms"]
+
+
 class _Wobble(px.Term):
     """A user term (defined outside pointax): an azimuth-dependent elevation offset."""
 

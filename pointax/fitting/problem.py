@@ -13,8 +13,6 @@ plain forward model, the oracle these residuals are tested against
 
 from __future__ import annotations
 
-import dataclasses
-
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
@@ -55,7 +53,7 @@ def define_problem(model: Model, data: Observations | Problem, free: Bool[Array,
     if isinstance(data, Problem):
         return data
     # One site's fit: the smaller program of XLA's own sines and cosines (SiteData.library_trig).
-    site = dataclasses.replace(site_data(model, data), library_trig=True)
+    site = site_data(model, data, library_trig=True)
     if free is not None:
         site = without_pinned_singularities(model, site, jnp.asarray(free, bool))
     return Problem(site)

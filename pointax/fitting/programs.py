@@ -14,6 +14,11 @@ twice, beside that cache:
   software and machine runs it without lowering the program or asking XLA's cache
   (0.1-0.15 s of a 1.7 s warm ``pointax fit``).
 
+A command may also name its *context* (:func:`prefetch`: ``pointax fit`` names its
+data file): the executable the last process of that context ran then starts loading in
+a background thread at once, while the process imports the rest of pointax and reads
+its data, and serves the fit if it is the one asked for.
+
 An entry's key is a hash of the program's name, the pytree structure (every node's
 class by module and qualified name, its static configuration) and shapes of its inputs,
 the fit options, and the versions of pointax (the hash of its source files), JAX,
@@ -33,8 +38,10 @@ like XLA's own cache, the folder must be written by no one but its user.
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import importlib.metadata
+import json
 import math
 import os
 import pickle
@@ -48,9 +55,14 @@ from pathlib import Path
 import jax
 import numpy as np
 
-__all__ = ["set_directory", "directory", "call", "clear", "STATS"]
+from .xla_options import fast_compile_options
 
-STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "executables_loaded": 0, "executables_stored": 0}
+__all__ = ["set_directory", "directory", "call", "clear", "prefetch", "STATS"]
+
+STATS = {
+    "loaded": 0, "exported": 0, "stored": 0, "memory": 0, "executables_loaded": 0, "executables_stored": 0,
+    "prefetch_started": 0, "prefetched": 0,
+}  # fmt: skip
 """How programs were obtained in this process (for tests and benchmarks)."""
 
 _DIRECTORY: Path | None = None
@@ -80,7 +92,7 @@ def clear(path: str | os.PathLike | None = None) -> None:
         shutil.rmtree(target)
 
 
-def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> object:
+def call(name: str, fn: Callable, args: tuple, static, structure: Callable, fast_compile: bool = False) -> object:
     """``fn(*args, static)`` through an exported program.
 
     Args:
@@ -92,6 +104,8 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> o
             built without tracing (a pytree structure cannot be stored: an equinox
             module's does not survive pickling); checked against the traced one before a
             program is stored.
+        fast_compile: compile with :func:`pointax.fitting.xla_options.fast_compile_options`
+            (part of the key).
 
     Falls back to an ordinary ``jax.jit`` when the program cannot be exported.
     """
@@ -99,14 +113,14 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable) -> o
     avals = [jax.ShapeDtypeStruct(np.shape(x), _dtype(x)) for x in leaves]
     # In memory, the tree itself is the key: it compares classes by identity (two term
     # classes may share a name: the linear and rigorous IA do).
-    memory_key = (name, in_tree, tuple((a.shape, a.dtype) for a in avals), static, jax.config.jax_enable_x64)
+    memory_key = (name, in_tree, tuple((a.shape, a.dtype) for a in avals), static, jax.config.jax_enable_x64, fast_compile)
     with _LOCK:
         entry = _MEMORY.get(memory_key)
     if entry is None:
         expected = structure(*args, static)
-        key = _key(name, in_tree, avals, static)
-        entry = (key is not None and (_load_executable(key, expected) or _load(key, expected))) or _export(
-            key, fn, in_tree, avals, static, expected
+        key = _key(name + (" fast-compile" if fast_compile else ""), in_tree, avals, static)
+        entry = (key is not None and (_load_executable(key, expected) or _load(key, expected, fast_compile))) or _export(
+            key, fn, in_tree, avals, static, expected, fast_compile
         )
         with _LOCK:
             _MEMORY[memory_key] = entry
@@ -207,19 +221,104 @@ def _executable_path(key: str | None) -> Path | None:
 
 def _load_executable(key: str, out_tree):
     path = _executable_path(key)
-    if path is None or not path.is_file():
+    if path is None:
         return None
-    try:
-        serialized, in_tree, flat_out_tree = pickle.loads(path.read_bytes())
-        if flat_out_tree.num_leaves != out_tree.num_leaves:
-            return None
-        if jax.default_backend() == "cpu":
-            _initialise_lapack()
-        compiled = _serializer().deserialize_and_load(serialized, in_tree, flat_out_tree)
-    except Exception:  # unreadable, from another writer: compile again
+    with _LOCK:
+        pending = _PREFETCH.pop(path, None)
+    if pending is not None:
+        thread, box = pending
+        thread.join()
+        loaded = box[0] if box else None
+        STATS["prefetched"] += loaded is not None
+    elif path.is_file():
+        loaded = _read_executable(path)
+    else:
+        return None
+    if loaded is None:  # unreadable, from another writer: compile again
+        return None
+    compiled, flat_out_tree = loaded
+    if flat_out_tree.num_leaves != out_tree.num_leaves:
         return None
     STATS["executables_loaded"] += 1
+    _remember(path)
     return compiled, [out_tree]
+
+
+def _read_executable(path: Path):
+    """``(compiled, its flat result structure)`` from an executable file, or None."""
+    try:
+        serialized, in_tree, flat_out_tree = pickle.loads(path.read_bytes())
+        if jax.default_backend() == "cpu":
+            _initialise_lapack()
+        return _serializer().deserialize_and_load(serialized, in_tree, flat_out_tree), flat_out_tree
+    except Exception:
+        return None
+
+
+_PREFETCH: dict[Path, tuple[threading.Thread, list]] = {}
+_CONTEXT: list[str] = []
+_RECENT = "recent.json"
+_RECENT_KEPT = 64
+
+
+def prefetch(context: str) -> bool:
+    """Start loading, in a background thread, the executable that the last process of
+    this ``context`` ran (the ``pointax`` command passes its subcommand and data file),
+    and remember the context for the executables this process runs.
+
+    Loading a fit's executable takes 0.1-0.15 s, and XLA releases the GIL while it does;
+    a warm ``pointax fit`` spends longer than that importing equinox and pointax and
+    reading the run before it knows which program it needs. The prefetched executable is
+    used only if it is the one the fit then asks for (by its key); otherwise it is left
+    unused. Returns whether a load was started."""
+    if _DIRECTORY is None:
+        return False
+    _CONTEXT[:] = [context]
+    name = _recent().get(context)
+    path = None if name is None else _DIRECTORY / name
+    if path is None or path in _PREFETCH or not path.is_file():
+        return False
+    jax.devices()  # the backend, started here rather than in the thread
+    box: list = []
+    thread = threading.Thread(target=lambda: box.append(_read_executable(path)), name="pointax-prefetch", daemon=True)
+    with _LOCK:
+        _PREFETCH[path] = (thread, box)
+    thread.start()
+    STATS["prefetch_started"] += 1
+    return True
+
+
+def _finish_prefetches() -> None:
+    """Wait for loads still running at exit (an unused prefetch), so that none runs while
+    the interpreter shuts down."""
+    for thread, _ in list(_PREFETCH.values()):
+        thread.join()
+
+
+atexit.register(_finish_prefetches)
+
+
+def _recent() -> dict:
+    try:
+        recent = json.loads((_DIRECTORY / _RECENT).read_text())
+    except (OSError, ValueError):
+        return {}
+    return recent if isinstance(recent, dict) else {}
+
+
+def _remember(path: Path) -> None:
+    """Note ``path`` as the executable of this process's context (for :func:`prefetch`)."""
+    if not _CONTEXT or _DIRECTORY is None:
+        return
+    recent = _recent()
+    if recent.get(_CONTEXT[0]) == path.name:
+        return
+    recent.pop(_CONTEXT[0], None)
+    recent[_CONTEXT[0]] = path.name  # the most recent last
+    try:
+        _write(_DIRECTORY / _RECENT, json.dumps(dict(list(recent.items())[-_RECENT_KEPT:])).encode())
+    except OSError:  # a read-only folder: no prefetch next time
+        pass
 
 
 def _serializer():
@@ -228,13 +327,17 @@ def _serializer():
     return serialize_executable
 
 
+_LAPACK_LOCK = threading.Lock()
+
+
 def _initialise_lapack() -> None:
     """Load the LAPACK routines the executable calls (from SciPy), as lowering a program
     with linear algebra does: without it, a fit's executable would call null pointers."""
-    _load_scipy_lapack_tables()
-    from jaxlib import lapack
+    with _LAPACK_LOCK:  # (a prefetch thread may be here too)
+        _load_scipy_lapack_tables()
+        from jaxlib import lapack
 
-    lapack.prepare_lapack_call("getrf_ffi", np.dtype(np.float64))
+        lapack.prepare_lapack_call("getrf_ffi", np.dtype(np.float64))
 
 
 SCIPY_LAPACK_TABLES = ("cython_blas", "cython_lapack")
@@ -287,7 +390,13 @@ def _count_cache_hit(event: str, **_) -> None:
         _CACHE_HITS.count += 1
 
 
-def _compiled(key: str | None, exported):
+def _options(fast_compile: bool) -> dict:
+    """The compiler options of a program (asked for only when one is compiled: finding
+    whether XLA knows the fast ones compiles a tiny program)."""
+    return fast_compile_options() if fast_compile else {}
+
+
+def _compiled(key: str | None, exported, fast_compile: bool):
     """``exported``, compiled; its executable kept on disk where programs are.
 
     An executable that XLA's persistent cache returned cannot be serialised again (its
@@ -296,11 +405,12 @@ def _compiled(key: str | None, exported):
     cache by :data:`_OWN_COMPILATION` and checked by counting the cache's hits."""
     path = _executable_path(key)
     if path is None:
-        return jax.jit(exported.call)
+        return jax.jit(exported.call, compiler_options=_options(fast_compile) or None)
     if not _LISTENING:
         jax.monitoring.register_event_listener(_count_cache_hit)
         _LISTENING.append(True)
     lowered = jax.jit(exported.call).lower(*exported.in_avals)
+    options = {**_OWN_COMPILATION, **_options(fast_compile)}  # (before counting: the probe may hit XLA's cache)
     with _COMPILING:
         # Nor does XLA's cache keep this compilation (it would be read, not compiled, when
         # an executable is lost): its compile-time threshold raised while it runs.
@@ -308,7 +418,7 @@ def _compiled(key: str | None, exported):
         jax.config.update("jax_persistent_cache_min_compile_time_secs", math.inf)
         _CACHE_HITS.count = 0
         try:
-            compiled = lowered.compile(compiler_options=_OWN_COMPILATION)
+            compiled = lowered.compile(compiler_options=options)
             fresh = _CACHE_HITS.count == 0
         finally:
             _CACHE_HITS.count = None
@@ -317,12 +427,13 @@ def _compiled(key: str | None, exported):
         try:
             _write(path, pickle.dumps(_serializer().serialize(compiled)))
             STATS["executables_stored"] += 1
+            _remember(path)
         except Exception:  # not serialisable, a full disk: the program alone is kept
             pass
     return compiled
 
 
-def _load(key: str, out_tree):
+def _load(key: str, out_tree, fast_compile: bool):
     path = _path(key)
     if path is None or not path.is_file():
         return None
@@ -333,10 +444,10 @@ def _load(key: str, out_tree):
     if len(exported.out_avals) != out_tree.num_leaves:
         return None
     STATS["loaded"] += 1
-    return _compiled(key, exported), [out_tree]
+    return _compiled(key, exported, fast_compile), [out_tree]
 
 
-def _export(key: str, fn: Callable, in_tree, avals, static, expected):
+def _export(key: str, fn: Callable, in_tree, avals, static, expected, fast_compile: bool):
     out_tree = []
 
     def flat(*leaves):
@@ -366,12 +477,12 @@ def _export(key: str, fn: Callable, in_tree, avals, static, expected):
         # first call records the result's structure: a new function, as JAX would reuse
         # the trace of ``flat`` from the export and not run it again).
         out_tree.clear()
-        return jax.jit(lambda *leaves: flat(*leaves)), out_tree
+        return jax.jit(lambda *leaves: flat(*leaves), compiler_options=_options(fast_compile) or None), out_tree
     STATS["exported"] += 1
     if out_tree[-1] != expected:
-        return jax.jit(exported.call), out_tree
+        return jax.jit(exported.call, compiler_options=_options(fast_compile) or None), out_tree
     _store(key, exported)
-    return _compiled(key, exported), out_tree
+    return _compiled(key, exported, fast_compile), out_tree
 
 
 def _store(key: str, exported) -> None:

@@ -8,6 +8,8 @@ form, data shape or option compiles again.
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import numpy as np
@@ -23,6 +25,7 @@ from .residuals import as_observations, check_convention
 from .ranges import wrap_periodic
 from .result import FitResult, too_little_data
 from .structure import embed
+from .xla_options import fast_compile_options
 
 __all__ = ["fit", "prepare", "fit_model", "options_from", "check_enough_data"]
 
@@ -48,7 +51,16 @@ def fit_model(model: Model, obs: Observations, options: FitOptions, caption: str
     return restrict(full, np.flatnonzero(free), model, caption)
 
 
-_fit_core_jit = eqx.filter_jit(fit_core)
+@functools.cache
+def _fit_core_jit():
+    """:func:`fit_core` compiled in memory (no programs folder), with the faster
+    compiler options (:mod:`pointax.fitting.xla_options`: the MMT run's 8-term fit compiled
+    in 0.94 s against 1.92 s, to an executable 10% smaller that runs as fast)."""
+
+    def run(dynamic, static, options):
+        return fit_core(*eqx.combine(dynamic, static), options)
+
+    return jax.jit(run, static_argnums=(1, 2), compiler_options=fast_compile_options() or None)
 
 
 @float64
@@ -113,9 +125,10 @@ def fit(
     embedding = embed(model)
     if programs.directory() is not None:  # traced programs kept on disk
         args = (embedding.model, embedding.free, obs)
-        full = programs.call("fit_core", fit_core, args, options, result_structure)
+        full = programs.call("fit_core", fit_core, args, options, result_structure, fast_compile=True)
     else:
-        full = _fit_core_jit(embedding.model, embedding.free, obs, options)
+        dynamic, static = eqx.partition((embedding.model, embedding.free, obs), eqx.is_array)
+        full = _fit_core_jit()(dynamic, static, options)
     # An encoder zero that ended a turn away is reported in its range (same model).
     return wrap_periodic(restrict(full, embedding.index, model, caption, numpy=True))
 
