@@ -45,11 +45,11 @@ from .site import (
     SiteData,
     is_affine,
     observed_point,
-    residual_function,
     site_geometry,
     site_residuals,
     with_sky_basis,
 )
+from .site_derivatives import residual_function
 
 SUSPECT_PIVOT = 1e-8
 """A relative Cholesky pivot of the normal matrix below this sends a site to the exact

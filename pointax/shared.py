@@ -44,7 +44,8 @@ from .fitting.residuals import check_convention
 from .fitting.result import FitResult
 from .model import Model
 from .observations import Observations
-from .site import SiteData, residual_columns, site_data, site_residuals
+from .site import SiteData, site_data, site_residuals
+from .site_derivatives import residual_columns
 from .units import UNITS
 
 __all__ = ["fit_shared", "SharedFit"]
@@ -198,7 +199,7 @@ def _only(active, x):
 
 def _joint_residual_function(own_params, shared_params):
     """``f((Y, p), (model, data, active)) -> (rx, ry)`` of shape ``(S, N)``, with Jacobian
-    columns from :func:`pointax.site.residual_columns` (a ``jax.custom_jvp``)."""
+    columns from :func:`pointax.site_derivatives.residual_columns` (a ``jax.custom_jvp``)."""
     params = tuple(own_params) + tuple(shared_params)
     m = len(own_params)
 

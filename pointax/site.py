@@ -13,31 +13,26 @@ arrangement matters more than the arithmetic (measured in ``benchmarks/batch_fit
 * **Structure of arrays**: vectors are three ``(n,)`` arrays, not ``(n, 3)``; rotations
   that do not depend on the observation (tilts, zero points, collimation, ...) are
   multiplied together once per site and applied as one matrix.
-* **Jacobian columns one parameter at a time** (:func:`residual_columns`): a forward
-  derivative with respect to one parameter skips every stage of the chain before
-  that parameter enters (JAX's symbolic zeros), about 3x cheaper than ``jax.jacfwd``
-  over all parameters at once.
 
 Nothing here knows any particular term: the terms' hooks are called exactly as
 :meth:`pointax.Model.mount_direction` calls them (through ``jax.vmap`` over the
 observations; a hook whose result does not depend on the observation is evaluated
 once), and :func:`site_residuals` equals :func:`pointax.residuals` times the square
 root of the normalised weights (checked to 1e-15 rad in ``tests/test_site.py``).
+The derivatives of these residuals, for the fits, are :mod:`pointax.site_derivatives`'s.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.custom_derivatives import SymbolicZero
 from jaxtyping import Array, Bool, Float
 
-from .model import Model, ParameterInfo
+from .model import Model
 from .mounts import SphericalMount
 from .observations import Observations
 from .rotations import azel_trig, wrap_pi
@@ -62,10 +57,14 @@ __all__ = [
     "with_sky_basis",
     "without_pinned_singularities",
     "site_residuals",
-    "residual_columns",
-    "residuals_and_columns",
-    "residual_function",
+    "site_pointing",
     "is_affine",
+    "chain_pointing",
+    "chain_angles",
+    "has_sky_offsets",
+    "sky_offsets_at",
+    "direction_at",
+    "tangent_offsets",
 ]
 
 _HOOKS = ("boresight_rotation", "axes_rotation", "base_rotation")
@@ -311,7 +310,7 @@ def _rotated(model: Model, angles) -> bool:
     return any(getattr(t, h)(angles[0]) is not None for t in model.terms for h in _HOOKS)
 
 
-def _chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
+def chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
     """Where the chain of rotations points before any sky offset: ``(v, angles)`` with
     ``v`` three ``(n,)`` arrays in the mount frame and ``angles`` the corrected axis
     angles ``(n, 2)``."""
@@ -337,19 +336,19 @@ def _chain_pointing(model: Model, data: SiteData) -> tuple[list, Array]:
 def site_pointing(model: Model, data: SiteData) -> list[Float[Array, " n"]]:
     """Pointing directions in the mount frame, as three ``(n,)`` arrays (x, y, z);
     the same as ``jax.vmap(model.mount_direction)`` over the site's readings."""
-    v, angles = _chain_pointing(model, data)
-    if not _has_sky_offsets(model, angles):
+    v, angles = chain_pointing(model, data)
+    if not has_sky_offsets(model, angles):
         return v
-    sky = _sky_position(model, _chain_angles(model, v, angles), data)
-    return _direction_at(model, sky[:, 0], sky[:, 1], data)
+    sky = _sky_position(model, chain_angles(model, v, angles), data)
+    return direction_at(model, sky[:, 0], sky[:, 1], data)
 
 
-def _has_sky_offsets(model: Model, angles) -> bool:
+def has_sky_offsets(model: Model, angles) -> bool:
     """Whether any term adds a pointing offset at the sky position (decided while tracing)."""
     return any(_per_observation(t.sky_offset, angles)[0] is not None for t in model.terms)
 
 
-def _chain_angles(model: Model, v, angles):
+def chain_angles(model: Model, v, angles):
     """The axis angles ``(n, 2)`` where the chain points (``v``, three ``(n,)`` arrays),
     near the corrected ``angles``."""
     if _rotated(model, angles):
@@ -357,7 +356,7 @@ def _chain_angles(model: Model, v, angles):
     return angles  # no rotation term in the chain: its direction's angles are these
 
 
-def _direction_at(model: Model, a1, a2, data: SiteData) -> list[Float[Array, " n"]]:
+def direction_at(model: Model, a1, a2, data: SiteData) -> list[Float[Array, " n"]]:
     """The mount's direction at the axis angles ``a1, a2`` (``(n,)`` each) as three ``(n,)``
     arrays."""
     if type(model.mount).direction is SphericalMount.direction:
@@ -400,22 +399,24 @@ def _library_sincos(x):
     return jnp.sin(x), jnp.cos(x)
 
 
-def _sky_position(model: Model, chain_angles, data: SiteData):
-    """:meth:`pointax.Model.sky_position` over a site: the same fixed-point iterations
-    (a loop, as there: unrolled, they tripled the compilation), with
-    :func:`_sky_point`'s sines and cosines, on the two angles as separate ``(n,)``
-    arrays (carried as one ``(n, 2)`` array, the loop ran at half the speed)."""
-    c1, c2 = chain_angles[:, 0], chain_angles[:, 1]
+def _sky_position(model: Model, start, data: SiteData):
+    """:meth:`pointax.Model.sky_position` over a site, from the chain's angles ``start``
+    ``(n, 2)``: the same fixed-point iterations (a loop, as there: unrolled, they tripled
+    the compilation), with :func:`_sky_point`'s sines and cosines, on the two angles as
+    separate ``(n,)`` arrays (carried as one ``(n, 2)`` array, the loop ran at half the
+    speed)."""
+    c1, c2 = start[:, 0], start[:, 1]
 
     def step(_, sky):
-        g1, g2 = _offsets_at(model, *sky, data)
+        g1, g2 = sky_offsets_at(model, *sky, data)
         return c1 + g1, c2 + g2
 
     return jnp.stack(jax.lax.fori_loop(0, model.sky_iterations, step, (c1, c2)), axis=-1)
 
 
-def _offsets_at(model: Model, a1, a2, data: SiteData):
-    """The terms' total sky offset at the axis angles ``a1, a2`` as two ``(n,)`` arrays."""
+def sky_offsets_at(model: Model, a1, a2, data: SiteData):
+    """The terms' total sky offset at the axis angles ``a1, a2`` as two ``(n,)`` arrays:
+    the map of :func:`site_pointing`'s fixed point (``sky = chain + offsets at sky``)."""
     g = _sky_offsets(model, _sky_point(a1, a2, data))
     return g[:, 0], g[:, 1]
 
@@ -428,7 +429,7 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         raise ValueError("this SiteData was built for residual_form='sky': rebuild it with the model")
     angles, _ = _corrected(model, data.nominal)
     if _rotated(model, angles):
-        v, angles = _chain_pointing(model, data)
+        v, angles = chain_pointing(model, data)
         chain = jax.vmap(model.mount.angles_of)(jnp.stack(v, axis=-1), angles)
     else:
         chain = angles  # no rotation term in the chain: the angles are where it points
@@ -485,12 +486,12 @@ def _site_residuals(model: Model, data: SiteData, weighted: bool) -> tuple[Array
     if model.residual_form == "tpoint":
         rx, ry = _tpoint_site_residuals(model, data)
     else:
-        rx, ry = _tangent_offsets(site_pointing(model, data), data.target_trig)
+        rx, ry = tangent_offsets(site_pointing(model, data), data.target_trig)
     scale = data.sqrt_weight if weighted else 1.0
     return jnp.where(data.used, rx * scale, 0.0), jnp.where(data.used, ry * scale, 0.0)
 
 
-def _tangent_offsets(pointing, target_trig) -> tuple[Array, Array]:
+def tangent_offsets(pointing, target_trig) -> tuple[Array, Array]:
     """The sky form's residuals, observed minus model in the tangent plane of the target:
     ``pointing`` three ``(n,)`` arrays (mount frame), ``target_trig`` as in :class:`SiteData`."""
     x, y, z = pointing
@@ -502,154 +503,3 @@ def _tangent_offsets(pointing, target_trig) -> tuple[Array, Array]:
 
 
 _site_residuals_jit = jax.jit(_site_residuals, static_argnums=2)
-
-
-def _values(y, n: int) -> list:
-    return [y[k] for k in range(n)]
-
-
-def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]) -> list[tuple[Array, Array]]:
-    """Columns of the Jacobian of :func:`site_residuals` (weighted) with respect to
-    ``params``: ``[(d rx/d p, d ry/d p), ...]``, one forward derivative per parameter
-    (:func:`_sky_form_columns` for the sky form's fixed point)."""
-    return residuals_and_columns(model, data, params)[1]
-
-
-def residuals_and_columns(
-    model: Model, data: SiteData, params: Sequence[ParameterInfo]
-) -> tuple[tuple[Array, Array], list[tuple[Array, Array]]]:
-    """:func:`site_residuals` (weighted) and :func:`residual_columns` together (the sky
-    form's fixed point gives both from one loop)."""
-    if params and model.residual_form != "tpoint" and _has_sky_offsets(model, data.nominal):
-        return _sky_form_columns(model, data, params)
-    return site_residuals(model, data), [_column(lambda m: site_residuals(m, data), model, p) for p in params]
-
-
-def _column(fn, model: Model, p: ParameterInfo):
-    """The forward derivative of ``fn(model)`` with respect to the parameter ``p``."""
-    value = getattr(model.terms[p.term], p.field)
-    return jax.jvp(lambda x: fn(model.replace_parameters([p], [x])), (value,), (jnp.ones_like(value),))[1]
-
-
-def _sky_form_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]):
-    """:func:`residuals_and_columns` for the sky form of a model with sky offsets: the
-    forward derivative of the same fixed-point iterations (:func:`_sky_position`), for
-    all parameters in one loop.
-
-    Iteration ``i`` maps the sky angles ``s`` to ``chain + g(s)``; its derivative maps
-    ``ds/dp`` to ``dchain/dp + G ds/dp + dg/dp``, where ``G`` (2 x 2 per observation) is
-    shared by all parameters and ``dg/dp`` touches only the terms holding ``p``. The
-    residuals' derivative with respect to the final ``s`` (2 x 2 per observation) then
-    gives the columns. Differentiating the loop parameter by parameter instead repeats
-    the whole loop, and ``G``, for every parameter."""
-
-    def chain_of(m):
-        v, angles = _chain_pointing(m, data)
-        angles = _chain_angles(m, v, angles)
-        return angles[:, 0], angles[:, 1]
-
-    def offsets(m, a1, a2):
-        return _offsets_at(m, a1, a2, data)
-
-    def partials(fn, a1, a2):
-        """``fn(a1, a2)`` and its derivatives with respect to ``a1`` and ``a2``."""
-        ones = jnp.ones_like(a1)
-        out, d1 = jax.jvp(lambda x: fn(x, a2), (a1,), (ones,))
-        return out, d1, jax.jvp(lambda x: fn(a1, x), (a2,), (ones,))[1]
-
-    def per_parameter(fn):
-        """``fn(model)``'s derivatives with respect to each parameter: two ``(m, n)`` arrays."""
-        cols = [_column(fn, model, p) for p in params]
-        return jnp.stack([c[0] for c in cols]), jnp.stack([c[1] for c in cols])
-
-    # Structure of arrays: the sky angles as two (n,) arrays, their derivatives as two
-    # (m, n) arrays (one row per parameter).
-    c1, c2 = chain_of(model)
-    tc1, tc2 = per_parameter(chain_of)
-
-    def step(_, carry):
-        a1, a2, t1, t2 = carry
-        (g1, g2), d1, d2 = partials(lambda x1, x2: offsets(model, x1, x2), a1, a2)
-        dg1, dg2 = per_parameter(lambda m: offsets(m, a1, a2))
-        return c1 + g1, c2 + g2, tc1 + d1[0] * t1 + d2[0] * t2 + dg1, tc2 + d1[1] * t1 + d2[1] * t2 + dg2
-
-    a1, a2, t1, t2 = jax.lax.fori_loop(0, model.sky_iterations, step, (c1, c2, tc1, tc2))
-    r, r1, r2 = partials(lambda x1, x2: _tangent_offsets(_direction_at(model, x1, x2, data), data.target_trig), a1, a2)
-    weighted = lambda x: jnp.where(data.used, x * data.sqrt_weight, 0.0)  # noqa: E731
-    cols = [tuple(weighted(r1[i] * t1[k] + r2[i] * t2[k]) for i in range(2)) for k in range(len(params))]
-    return (weighted(r[0]), weighted(r[1])), cols
-
-
-def residual_function(params: Sequence[ParameterInfo]):
-    """``f(y, (model, data)) -> (rx, ry)``: the weighted residuals with the parameters
-    ``params`` set to the vector ``y``, for optimistix. Its derivative with respect to
-    ``y`` comes from :func:`residual_columns` (a ``jax.custom_jvp``), so linearising it
-    keeps only the Jacobian's columns; derivatives with respect to the model's other
-    leaves and the data are ordinary forward derivatives."""
-    params = tuple(params)
-    n = len(params)
-
-    @jax.custom_jvp
-    def fn(y, model, data):
-        return site_residuals(model.replace_parameters(params, _values(y, n)), data)
-
-    def fn_jvp(primals, tangents):
-        y, model, data = primals
-        ty, t_model, t_data = tangents
-        ys = _values(y, n)
-        fitted = model.replace_parameters(params, ys)
-        if isinstance(ty, SymbolicZero):
-            out, columns = site_residuals(fitted, data), None
-        else:
-            out, columns = residuals_and_columns(fitted, data, params)
-        # Sums started from their first term, not from zeros: a linearisation stores every
-        # constant it meets as an array (see _scaled).
-        parts = []
-        if columns is not None:
-            parts += [(_scaled(ty[k], cx), _scaled(ty[k], cy)) for k, (cx, cy) in enumerate(columns)]
-        extra = _other_tangents(model, data, t_model, t_data, lambda m, d: site_residuals(m.replace_parameters(params, ys), d))
-        if extra is not None:
-            parts.append(extra)
-        if not parts:
-            return out, (jnp.zeros_like(out[0]), jnp.zeros_like(out[1]))
-        return out, tuple(sum((p[i] for p in parts[1:]), parts[0][i]) for i in range(2))
-
-    fn.defjvp(fn_jvp, symbolic_zeros=True)
-
-    def residuals_of(y, args):
-        model, data = args
-        return fn(y, model, data)
-
-    return residuals_of
-
-
-def _scaled(t, column):
-    """``t * column``, exactly 0 where ``t`` is: the solver takes the Jacobian's columns
-    as the tangent map of unit vectors, and XLA cannot drop ``0 * column`` itself (NaN,
-    inf), so each column would be computed from every column's arrays (measured:
-    the TPOINT fit call 17% slower). Written with no constant (the zero is ``t``'s own,
-    the test ``t``'s conversion to bool): ``jax.linearize`` stores each constant it meets
-    as an array, which the batched fit carried from step to step and XLA could no longer
-    fold away (``benchmarks/batch_fit_notes.md``, change 9)."""
-    return jnp.where(t.astype(bool), t * column, t)
-
-
-def _other_tangents(model, data, t_model, t_data, f):
-    """Forward derivative of ``f(model, data)`` along the tangents of the model's and the
-    data's floating-point leaves (None when they are all symbolic zeros)."""
-    is_zero = lambda t: isinstance(t, SymbolicZero)  # noqa: E731
-    flat_p, treedef = jax.tree.flatten((model, data))
-    flat_t = jax.tree.leaves((t_model, t_data), is_leaf=is_zero)
-    index = [i for i, p in enumerate(flat_p) if jnp.issubdtype(jnp.result_type(p), jnp.inexact)]
-    if all(is_zero(flat_t[i]) for i in index):
-        return None
-
-    def g(*xs):
-        leaves = list(flat_p)
-        for i, x in zip(index, xs):
-            leaves[i] = x
-        return f(*jax.tree.unflatten(treedef, leaves))
-
-    primal = [flat_p[i] for i in index]
-    tangent = [jnp.zeros_like(flat_p[i]) if is_zero(flat_t[i]) else flat_t[i] for i in index]
-    return jax.jvp(g, primal, tangent)[1]

@@ -18,7 +18,8 @@ from test_batch import _padded
 from test_conformance import _ols_reference
 
 import pointax as px
-from pointax.site import is_affine, residual_function, site_data, site_residuals
+from pointax.site import is_affine, site_data, site_residuals
+from pointax.site_derivatives import residual_function
 from pointax.terms.base import angle_pair
 
 ARCSEC = np.pi / 648000

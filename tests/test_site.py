@@ -1,6 +1,7 @@
-"""The structured evaluation of a site (pointax.site) and the small normal-equation
-solver: references are the plain per-observation model (pointax.residuals), jax.jacfwd
-of it, finite differences, and numpy's least squares."""
+"""The structured evaluation of a site (pointax.site), its derivatives
+(pointax.site_derivatives) and the small normal-equation solver: references are the
+plain per-observation model (pointax.residuals), jax.jacfwd of it, finite differences,
+and numpy's least squares."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ from pointax import normal_equations as ne
 from pointax import site
 from pointax.rotations import rot_z
 from pointax.simulate import encoder_grid
-from pointax.site import residual_columns, residual_function, site_data, site_residuals
+from pointax.site import site_data, site_residuals
+from pointax.site_derivatives import residual_columns, residual_function
 
 RNG = np.random.default_rng(7)
 TPOINT8 = "IA IE NPAE CA AN AW TF TX"

@@ -6,6 +6,7 @@ automatic model building.
     pointax/analysis/families.py        model families by name (X-Y paper families, TPOINT alt-az sets)
     pointax/analysis/comparison.py      compare(): families side by side, the paper's Table 3
     pointax/analysis/model_building.py  build_model(): grow and prune a model term by term (TPOINT's FAUTO)
+    pointax/analysis/building_fits.py   build_model's least-squares fits over masks of terms and rows
 
 :func:`compare` and :func:`build_model` are also ``pointax.compare`` and
 ``pointax.build_model``.
@@ -13,10 +14,11 @@ automatic model building.
 
 from __future__ import annotations
 
+from .building_fits import STEP_TOLERANCE
 from .comparison import BEFORE, Comparison, FamilyStats, compare
 from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, EQUATORIAL_FAMILIES, EQUATORIAL_HARMONICS, family_model
 from .folds import fold_indices, holdout_indices
-from .model_building import STEP_TOLERANCE, BuildStep, ModelBuild, build_model
+from .model_building import BuildStep, ModelBuild, build_model
 from .statistics import PER_AXIS, AxisRMS, axis_rms, information_criteria
 
 __all__ = [
