@@ -1,12 +1,13 @@
 """One problem definition for every fit: what one site's observations fix, prepared
 once, and one residual function of the model's parameters.
 
-The solo fit (:func:`pointax.fit`, leave-one-out, the comparison folds, TPOINT's FIT),
-the batched fit (:func:`pointax.fit_batch`) and the shared-parameter fit
-(:func:`pointax.fit_shared`) all evaluate their residuals here: the structured
-evaluation of :mod:`pointax.site` (nominal axis angles and their sines and cosines, the
-targets in the mount frame, TPOINT's unit sky offsets: computed once per fit, not once
-per step). :meth:`pointax.Model.mount_direction` and :func:`pointax.residuals` stay the
+Every fit evaluates its residuals on the structured evaluation of :mod:`pointax.site`
+(nominal axis angles and their sines and cosines, the targets in the mount frame,
+TPOINT's unit sky offsets: computed once per fit, not once per step): the solo fit
+(:func:`pointax.fit`, leave-one-out, the comparison folds, TPOINT's FIT, model
+building) through this module's :class:`Problem`; the batched fit
+(:func:`pointax.fit_batch`) and the shared-parameter fit (:func:`pointax.fit_shared`)
+on the same site data with a leading site axis, and their full loop is the solo fit. :meth:`pointax.Model.mount_direction` and :func:`pointax.residuals` stay the
 plain forward model, the oracle these residuals are tested against
 (``tests/test_site.py``).
 """
