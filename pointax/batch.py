@@ -29,10 +29,10 @@ from jaxtyping import Array, ArrayLike, Float
 
 from . import normal_equations
 from ._x64 import float64
+from .fitting import xla_options
 from .fitting.core import result_from_covariance
 from .fitting.options import FitOptions
 from .fitting.ranges import range_warning, wrap_periodic
-from .fitting.xla_options import fast_compile_options
 from .fitting.residuals import check_convention
 from .fitting.result import FitResult, too_few_residuals
 from .fitting.solo import fit_model, options_from
@@ -267,8 +267,7 @@ def _along(cols: list, update) -> list:
 
 @functools.cache
 def _compiled(fn, static_argnames: tuple[str, ...] = (), fast_options: bool = True):
-    options = fast_compile_options() if fast_options else {}
-    return jax.jit(fn, static_argnames=static_argnames, compiler_options=options)
+    return xla_options.jit(fn, fast_options, static_argnames=static_argnames)
 
 
 def uses_fast_compile_options(model: Model) -> bool:
@@ -382,28 +381,26 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
     if active is None:
         active = np.ones(np.shape(values)[0], bool)
     dynamic, static = eqx.partition((model, values, obs, np.asarray(active)), eqx.is_array)
-    return _full_loop()(dynamic, static, options)
+    return _compiled(_full_loop, ("static", "options"))(dynamic, static, options)
 
 
-@functools.cache
-def _full_loop():
-    def run(dynamic, static, options):
-        model, values, obs, active = eqx.combine(dynamic, static)
+def _full_loop(dynamic, static, options: FitOptions):
+    """:func:`_fit_sites`'s loop; ``dynamic`` and ``static``: ``(model, values, obs,
+    active)`` partitioned into arrays and the rest."""
+    model, values, obs, active = eqx.combine(dynamic, static)
 
-        def one(args):
-            y, site_obs = args
-            return fit_model(model.with_values(y, "free"), site_obs, options)
+    def one(args):
+        y, site_obs = args
+        return fit_model(model.with_values(y, "free"), site_obs, options)
 
-        shapes = jax.eval_shape(one, jax.tree.map(lambda x: x[0], (values, obs)))
+    shapes = jax.eval_shape(one, jax.tree.map(lambda x: x[0], (values, obs)))
 
-        def maybe(args):
-            is_active, y, site_obs = args
-            skip = lambda a: jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)  # noqa: E731
-            return jax.lax.cond(is_active, one, skip, (y, site_obs))
+    def maybe(args):
+        is_active, y, site_obs = args
+        skip = lambda a: jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)  # noqa: E731
+        return jax.lax.cond(is_active, one, skip, (y, site_obs))
 
-        return jax.lax.map(maybe, (active, values, obs))
-
-    return jax.jit(run, static_argnums=(1, 2), compiler_options=fast_compile_options() or None)
+    return jax.lax.map(maybe, (active, values, obs))
 
 
 def _power_of_two(n: int) -> int:

@@ -167,7 +167,7 @@ def site_geometry(
     trig = target_trig = None
     tpoint = model.residual_form == "tpoint"
     if not tpoint or _rotated(model, nominal):
-        sines = _library_sincos if library_trig else sincos
+        sines = _sincos(library_trig)
         (sin1, cos1), (sin2, cos2) = sines(nominal[:, 0]), sines(nominal[:, 1])
         trig = (cos1, sin1, cos2, sin2)
     if not tpoint:
@@ -376,8 +376,8 @@ def _sky_point(a1, a2, data: SiteData) -> SkyPoint:
     form's with them) unless ``data.library_trig``."""
     cos1, sin1, cos2, sin2 = data.trig
     nominal = data.nominal
-    small = _library_sincos if data.library_trig else sincos
-    (s1, c1), (s2, c2) = small(a1 - nominal[:, 0]), small(a2 - nominal[:, 1])
+    sines = _sincos(data.library_trig)
+    (s1, c1), (s2, c2) = sines(a1 - nominal[:, 0]), sines(a2 - nominal[:, 1])
     return SkyPoint(
         a1, a2, sin1 * c1 + cos1 * s1, cos1 * c1 - sin1 * s1, sin2 * c2 + cos2 * s2, cos2 * c2 - sin2 * s2
     )
@@ -394,9 +394,10 @@ def _sky_offsets(model: Model, point: SkyPoint):
     return total
 
 
-def _library_sincos(x):
-    """``(sin x, cos x)`` from XLA's library functions (:attr:`SiteData.library_trig`)."""
-    return jnp.sin(x), jnp.cos(x)
+def _sincos(library_trig: bool):
+    """``x -> (sin x, cos x)``: XLA's library functions when ``library_trig``
+    (:attr:`SiteData.library_trig`), else :func:`pointax.trig.sincos`."""
+    return (lambda x: (jnp.sin(x), jnp.cos(x))) if library_trig else sincos
 
 
 def _sky_position(model: Model, start, data: SiteData):

@@ -24,10 +24,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
+from ..fitting import xla_options
 from ..fitting.core import linearised_change
 from ..fitting.problem import define_problem
 from ..fitting.statistics import normalised_weights, statistics
-from ..fitting.xla_options import fast_compile_options
 from ..model import Model
 from ..observations import Observations
 from .folds import Scheme
@@ -89,9 +89,7 @@ def compiled_program(fn, static: Model, obs: Observations):
     key = (fn, static, treedef, tuple((x.shape, x.dtype.str, np.asarray(x).tobytes()) for x in leaves))
     program = _PROGRAMS.get(key)
     if program is None:
-        program = jax.jit(
-            lambda arrays, *args: fn(eqx.combine(arrays, static), obs, *args), compiler_options=fast_compile_options()
-        )
+        program = xla_options.jit(lambda arrays, *args: fn(eqx.combine(arrays, static), obs, *args))
         while len(_PROGRAMS) >= 8:
             del _PROGRAMS[next(iter(_PROGRAMS))]
         _PROGRAMS[key] = program
@@ -117,9 +115,8 @@ def _steps(
     def one(jac, r, y, rows):
         sqrt_w = jnp.sqrt(normalised_weights(rows.astype(jac.dtype), rows))  # 1 on rows, 0 elsewhere
         weighted = (r * sqrt_w[:, None]).reshape(-1)
-        change, unit_cov, degenerate = linearised_change(jac * jnp.repeat(sqrt_w, 2)[:, None], weighted, free)
-        step_finite = jnp.all(jnp.isfinite(change))
-        change = jnp.where(step_finite, change, 0.0)
+        weighted_jac = jac * jnp.repeat(sqrt_w, 2)[:, None]
+        change, unit_cov, degenerate, step_finite = linearised_change(weighted_jac, weighted, free)
         values = y + change
         predicted = r + (jac @ change).reshape(r.shape)
         weighted = predicted * sqrt_w[:, None]
@@ -133,7 +130,7 @@ def _steps(
 @functools.cache
 def _steps_program():
     """:func:`_steps`, compiled (one program for every build)."""
-    return jax.jit(_steps, compiler_options=fast_compile_options())
+    return xla_options.jit(_steps)
 
 
 def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -46,7 +46,6 @@ __all__ = [
 ]
 
 
-
 class _Solvers(Mapping):
     """Solver name -> (display name, optimistix class), importing optimistix on first
     look-up: a process that runs a stored fit (:mod:`pointax.fitting.programs`) never
@@ -229,11 +228,11 @@ def gauss_newton_step(
     sqrt_w = jnp.sqrt(weight)[:, None]
 
     def weighted(y):
-        return (problem.residuals(model.with_values(jnp.where(free, y, y0))) * sqrt_w).reshape(-1)
+        flat = (problem.residuals(model.with_values(jnp.where(free, y, y0))) * sqrt_w).reshape(-1)
+        return flat, flat
 
-    change, unit_cov, degenerate = linearised_change(jax.jacfwd(weighted)(y), weighted(y), free)
-    step_finite = jnp.all(jnp.isfinite(change))
-    change = jnp.where(step_finite, change, 0.0)
+    jac, flat = jax.jacfwd(weighted, has_aux=True)(y)  # the residuals are the Jacobian's primal
+    change, unit_cov, degenerate, step_finite = linearised_change(jac, flat, free)
     y = y + change
     fitted = model.with_values(y)
     r = problem.residuals(fitted)  # outliers keep their residuals; statistics skip them
@@ -245,16 +244,18 @@ def gauss_newton_step(
 
 def linearised_change(
     jac: Float[Array, "k m"], weighted: Float[Array, " k"], free: Bool[Array, " m"]
-) -> tuple[Float[Array, " m"], Float[Array, "m m"], Bool[Array, " m"]]:
+) -> tuple[Float[Array, " m"], Float[Array, "m m"], Bool[Array, " m"], Bool[Array, ""]]:
     """The least-squares change of the ``free`` parameters for residuals ``weighted``
     (``(k,)``, times the square roots of their weights) with Jacobian ``jac`` (``(k, m)``,
     every parameter; the columns of the others are ignored): ``-(J^T J)^-1 J^T r``, 0 for
     parameters not free, with ``(J^T J)^-1`` and the degenerate parameters from
-    :func:`svd_unit_covariance`. The linear algebra of :func:`gauss_newton_step`."""
+    :func:`svd_unit_covariance`, and whether the change was finite (if not, it is 0).
+    The linear algebra of :func:`gauss_newton_step`."""
     jac = jnp.where(free, jac, 0.0)  # (not jac * free: an unused column may hold inf)
     unit_cov, degenerate = svd_unit_covariance(jac, free)
     change = jnp.where(free, -(unit_cov @ (jac.T @ weighted)), 0.0)
-    return change, unit_cov, degenerate
+    finite = jnp.all(jnp.isfinite(change))
+    return jnp.where(finite, change, 0.0), unit_cov, degenerate, finite
 
 
 def fit_result(

@@ -55,7 +55,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from .xla_options import fast_compile_options
+from . import xla_options
 
 __all__ = ["set_directory", "directory", "call", "clear", "prefetch", "STATS"]
 
@@ -390,10 +390,6 @@ def _count_cache_hit(event: str, **_) -> None:
         _CACHE_HITS.count += 1
 
 
-def _options(fast_compile: bool) -> dict:
-    """The compiler options of a program (asked for only when one is compiled: finding
-    whether XLA knows the fast ones compiles a tiny program)."""
-    return fast_compile_options() if fast_compile else {}
 
 
 def _compiled(key: str | None, exported, fast_compile: bool):
@@ -405,12 +401,14 @@ def _compiled(key: str | None, exported, fast_compile: bool):
     cache by :data:`_OWN_COMPILATION` and checked by counting the cache's hits."""
     path = _executable_path(key)
     if path is None:
-        return jax.jit(exported.call, compiler_options=_options(fast_compile) or None)
+        return xla_options.jit(exported.call, fast_compile)
     if not _LISTENING:
         jax.monitoring.register_event_listener(_count_cache_hit)
         _LISTENING.append(True)
     lowered = jax.jit(exported.call).lower(*exported.in_avals)
-    options = {**_OWN_COMPILATION, **_options(fast_compile)}  # (before counting: the probe may hit XLA's cache)
+    # (Asked before counting: finding whether XLA knows the fast options compiles a tiny
+    # program, which may hit XLA's cache.)
+    options = {**_OWN_COMPILATION, **(xla_options.fast_compile_options() if fast_compile else {})}
     with _COMPILING:
         # Nor does XLA's cache keep this compilation (it would be read, not compiled, when
         # an executable is lost): its compile-time threshold raised while it runs.
@@ -477,10 +475,10 @@ def _export(key: str, fn: Callable, in_tree, avals, static, expected, fast_compi
         # first call records the result's structure: a new function, as JAX would reuse
         # the trace of ``flat`` from the export and not run it again).
         out_tree.clear()
-        return jax.jit(lambda *leaves: flat(*leaves), compiler_options=_options(fast_compile) or None), out_tree
+        return xla_options.jit(lambda *leaves: flat(*leaves), fast_compile), out_tree
     STATS["exported"] += 1
     if out_tree[-1] != expected:
-        return jax.jit(exported.call, compiler_options=_options(fast_compile) or None), out_tree
+        return xla_options.jit(exported.call, fast_compile), out_tree
     _store(key, exported)
     return _compiled(key, exported, fast_compile), out_tree
 

@@ -18,14 +18,13 @@ from jaxtyping import Array, Float
 from .._x64 import float64
 from ..model import Model
 from ..observations import Observations
-from . import programs
+from . import programs, xla_options
 from .core import fit_core, free_mask, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
 from .ranges import wrap_periodic
 from .result import FitResult, too_little_data
 from .structure import embed
-from .xla_options import fast_compile_options
 
 __all__ = ["fit", "prepare", "fit_model", "options_from", "check_enough_data"]
 
@@ -61,7 +60,7 @@ def _fit_core_jit():
     def run(dynamic, static, options):
         return fit_core(*eqx.combine(dynamic, static), options)
 
-    return jax.jit(run, static_argnums=(1, 2), compiler_options=fast_compile_options() or None)
+    return xla_options.jit(run, static_argnums=(1, 2))
 
 
 @float64

@@ -13,7 +13,7 @@ import functools
 
 import jax
 
-__all__ = ["FAST_COMPILE_OPTIONS", "fast_compile_options"]
+__all__ = ["FAST_COMPILE_OPTIONS", "fast_compile_options", "jit"]
 
 FAST_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 2}
 """The options (see the module's docstring)."""
@@ -27,3 +27,9 @@ def fast_compile_options() -> dict:
     except Exception:  # an XLA without these options
         return {}
     return FAST_COMPILE_OPTIONS
+
+
+def jit(fn, fast: bool = True, **kwargs):
+    """``jax.jit(fn, **kwargs)``, with :func:`fast_compile_options` when ``fast`` (found
+    out when this is called: a tiny compilation the first time)."""
+    return jax.jit(fn, compiler_options=(fast_compile_options() if fast else None) or None, **kwargs)
