@@ -184,7 +184,7 @@ def test_linear_residuals_fix_lose_mask_against_numpy_lstsq(tmp_path, capsys):
 def test_words_are_case_insensitive_and_abbreviated():
     assert resolve("outm") == "OUTMOD" and resolve("Indat") == "INDAT" and resolve("UNM") == "UNMASK"
     assert resolve("gsmap") == "G" and resolve("GC") == "GC" and resolve("g") == "G"
-    assert resolve("pltz") == "NOTED" and resolve("fauto") == "FAUTO"
+    assert resolve("clrng") == "CLRNG" and resolve("pltz") == "PLTZ" and resolve("fauto") == "FAUTO"
     assert resolve("mine", ["MINE"]) == "PROC:MINE"
     with pytest.raises(ValueError, match="ambiguous: FIX, FIT"):
         resolve("FI")
@@ -241,10 +241,10 @@ def test_procedures_inpro_call_and_relative_names(tmp_path, capsys):
 
 
 def test_end_stops_a_script_and_settings_are_noted(tmp_path, capsys):
-    s = script(tmp_path, "end.ptp", "PLTZ 5\nclrng 1 2\nEND\nFROB\n")
+    s = script(tmp_path, "end.ptp", "PLTE 5\nclrng 1 2\nEND\nFROB\n")
     assert main(["tpoint", str(s)]) == 0
     out = capsys.readouterr().out
-    assert "PLTZ: display setting accepted" in out and "CLRNG: display setting accepted" in out
+    assert "PLTE: display setting accepted (5)" in out and "CLRNG: display setting accepted (1 2)" in out
 
 
 def test_mount_option(tmp_path, capsys):

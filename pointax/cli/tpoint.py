@@ -29,8 +29,10 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
         "tpoint",
         help="run TPOINT commands (INDAT, USE, FIT, MASK, OUTMOD, PROC, ...) from files or standard input",
         description="Run TPOINT commands from files in turn, or from standard input (interactively when it "
-        "is a terminal). Commands: INDAT INMOD OUTMOD USE LOSE FIX UNFIX FIT SLIST MASK UNMASK FAUTO SHOW "
-        "PROC/RETURN INPRO CALL G.../GC CAPT HELP; words are case-insensitive and may be abbreviated.",
+        "is a terminal). Commands: INDAT INMOD OUTMOD USE LOSE FIX UNFIX FIT SLIST MASK UNMASK FAUTO ADJUST SHOW "
+        "PROC/RETURN INPRO CALL G.../GC/PLTZ CAPT HELP END; words are case-insensitive and may be abbreviated; "
+        "! and ; start comments; file names may be quoted. TPOINT commands pointax does not run (OUTDAT, "
+        "OUTPRO, CHAIN, PARALLEL, GHYST) and display settings (CLRNG, PLTON, ...) get a one-line note.",
     )
     p.add_argument("scripts", nargs="*", metavar="SCRIPT", help="command files; file names in them are relative to their folder")
     p.add_argument(
@@ -58,16 +60,24 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+def _enable_cache() -> None:
+    """JAX's compilation cache ($POINTAX_JAX_CACHE; empty: off), turned on before the
+    first command that computes (HELP or a bad first word never imports JAX)."""
+    from ..compilation_cache import enable_compilation_cache
+
+    enable_compilation_cache()
+
+
 def run_tpoint(args: argparse.Namespace) -> int:
     """Run ``pointax tpoint`` for parsed ``args``; returns the exit status."""
     missing = missing_input(args.scripts)
     if missing:
         return error(_PREFIX, missing)
-    from ..compilation_cache import enable_compilation_cache
     from ..procedures import ProcedureError, Runner, Session
 
-    enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
-    session = Session(mount=args.mount, azimuth=args.azimuth, form=args.form, residual_form=args.residuals)
+    session = Session(
+        mount=args.mount, azimuth=args.azimuth, form=args.form, residual_form=args.residuals, prepare=_enable_cache
+    )
     runner = Runner(session)
     try:
         if args.scripts:

@@ -3,7 +3,10 @@
 Each takes the :class:`~pointax.procedures.session.Session`, the arguments as written
 and the :class:`~pointax.procedures.parser.Line` (for relative file names), changes
 the session and prints what TPOINT would. PROC, RETURN, INPRO, CALL, END, EXIT and
-QUIT are the runner's (:mod:`pointax.procedures.runner`).
+QUIT are the runner's (:mod:`pointax.procedures.runner`); the graphics commands (G...,
+GC, CAPT, PLTZ) are in :mod:`pointax.procedures.graphics`. Display settings
+(:data:`~pointax.procedures.parser.NOTED_SETTINGS`) and TPOINT commands pointax does not
+run (:data:`~pointax.procedures.parser.NOT_IMPLEMENTED`) print a one-line note.
 """
 
 from __future__ import annotations
@@ -14,10 +17,11 @@ import re
 import numpy as np
 
 from ..units import ARCSEC
-from .parser import COMMANDS, NOTED_SETTINGS, Line
+from .graphics import cmd_capt, cmd_gc, cmd_graph, cmd_pltz, require_fit
+from .parser import COMMANDS, GRAPHICS_NOT_DRAWN, NOT_IMPLEMENTED, NOTED_SETTINGS, Line, Quoted
 from .session import Session, read_run
 
-__all__ = ["COMMAND_FUNCTIONS", "DEFAULT_FAUTO_CANDIDATES", "EQUATORIAL_FAUTO_CANDIDATES", "fit_table"]
+__all__ = ["COMMAND_FUNCTIONS", "LIGHT_COMMANDS", "DEFAULT_FAUTO_CANDIDATES", "EQUATORIAL_FAUTO_CANDIDATES", "fit_table"]
 
 DEFAULT_FAUTO_CANDIDATES = tuple(
     f"H{what}{fn}{arg}{k}" for what in "AES" for fn in "SC" for arg in "AE" for k in (1, 2, 3)
@@ -77,24 +81,35 @@ def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
     s.say(f"INMOD: {len(names)} terms from {path}: {' '.join(names)}")
 
 
+OUTMOD_LAYOUTS = {"ONELINE": "one-line", "LINES": "lines"}
+"""OUTMOD's layout words after the file name: TPOINT's one-line layout, or a record a
+line (the default)."""
+
+
 def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
-    """OUTMOD FILE: write the model as a TPOINT model file (with N, Sky RMS and sigmas
-    of the last FIT when nothing changed since; the refraction constants of the model
-    file INMOD read, else those of the run's weather)."""
+    """OUTMOD FILE [ONELINE]: write the model as a TPOINT model file (with N, Sky RMS
+    and sigmas of the last FIT when nothing changed since; the refraction constants of
+    the model file INMOD read, else those of the run's weather); ONELINE writes TPOINT's
+    one-line layout (with the x and y RMS and the masked observations of that FIT)."""
     from ..io.tpoint_model import refraction_arcsec, write_model
 
+    layout = "lines"
+    if len(args) == 2 and not isinstance(args[1], Quoted) and args[1].upper() in OUTMOD_LAYOUTS:
+        layout = OUTMOD_LAYOUTS[args[1].upper()]
+        args = args[:1]
     if len(args) != 1:
-        raise ValueError("OUTMOD needs one file name")
+        raise ValueError(f"OUTMOD needs one file name, then optionally {' or '.join(OUTMOD_LAYOUTS)}")
     path = line.path(args[0])
     refraction = s.refraction or refraction_arcsec(s.run)  # INMOD's constants, else the run's weather
+    shape = " (one-line layout)" if layout == "one-line" else ""
     if s.result is not None and not s.stale:
-        write_model(path, s.result, caption=s.current_caption(), refraction=refraction)
-        s.say(f"OUTMOD: {path} (N {int(s.result.n_obs)}, Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f})")
+        write_model(path, s.result, caption=s.current_caption(), refraction=refraction, layout=layout)
+        s.say(f"OUTMOD: {path}{shape} (N {int(s.result.n_obs)}, Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f})")
     else:
         if not s.terms:
             raise ValueError("OUTMOD: the model has no terms (USE or INMOD first)")
-        write_model(path, s.model(), caption=s.current_caption(), refraction=refraction)
-        s.say(f"OUTMOD: {path} (values only: the model or the masks changed since the last FIT)")
+        write_model(path, s.model(), caption=s.current_caption(), refraction=refraction, layout=layout)
+        s.say(f"OUTMOD: {path}{shape} (values only: the model or the masks changed since the last FIT)")
 
 
 def cmd_use(s: Session, args: list[str], line: Line) -> None:
@@ -111,7 +126,9 @@ def cmd_use(s: Session, args: list[str], line: Line) -> None:
 
 
 def _in_use(s: Session, args: list[str], what: str) -> list[str]:
-    if [a.upper() for a in args] == ["ALL"]:
+    """The terms ``args`` name, each in use; every term in use for ``ALL`` or for no
+    argument (TPOINT's bare FIX, UNFIX and LOSE act on the whole model)."""
+    if not args or [a.upper() for a in args] == ["ALL"]:
         return list(s.terms)
     names = _names(args, what)
     unknown = [n for n in names if n not in s.terms]
@@ -121,7 +138,7 @@ def _in_use(s: Session, args: list[str], what: str) -> list[str]:
 
 
 def cmd_lose(s: Session, args: list[str], line: Line) -> None:
-    """LOSE NAME ... | ALL: remove terms from the model."""
+    """LOSE [NAME ... | ALL]: remove terms from the model (all of them when none named)."""
     names = _in_use(s, args, "LOSE")
     s.terms = [n for n in s.terms if n not in names]
     for n in names:
@@ -132,17 +149,40 @@ def cmd_lose(s: Session, args: list[str], line: Line) -> None:
 
 
 def cmd_fix(s: Session, args: list[str], line: Line) -> None:
-    """FIX NAME ... | ALL: hold terms at their current values in FIT."""
+    """FIX [NAME ... | ALL]: hold terms at their current values in FIT (all when none named)."""
     s.fixed |= set(_in_use(s, args, "FIX"))
     s.stale = True
     s.say(f"FIX: fixed {' '.join(n for n in s.terms if n in s.fixed) or 'none'}")
 
 
 def cmd_unfix(s: Session, args: list[str], line: Line) -> None:
-    """UNFIX NAME ... | ALL: fit terms again."""
+    """UNFIX [NAME ... | ALL]: fit terms again (all when none named)."""
     s.fixed -= set(_in_use(s, args, "UNFIX"))
     s.stale = True
     s.say(f"UNFIX: fixed {' '.join(n for n in s.terms if n in s.fixed) or 'none'}")
+
+
+ADJUST_DIRECTIONS = {
+    "T": "the model adjusts the telescope to fit the stars (observed = raw + model): pointax's direction",
+    "S": "the model adjusts the stars to fit the telescope",
+}
+"""TPOINT's ADJUST settings: which side of the comparison the model moves."""
+
+
+def cmd_adjust(s: Session, args: list[str], line: Line) -> None:
+    """ADJUST T|S: the direction of the model. T (telescope to fit the stars) is
+    pointax's, the one whose coefficients DESIGN's TPOINT conformance checks; S (stars
+    to fit the telescope) is noted and not applied."""
+    if not args:
+        s.say(f"ADJUST: T, {ADJUST_DIRECTIONS['T']}")
+        return
+    which = args[0].upper()
+    if len(args) != 1 or which not in ADJUST_DIRECTIONS:
+        raise ValueError(f"takes T or S, got {' '.join(args)}")
+    if which == "T":
+        s.say(f"ADJUST T: {ADJUST_DIRECTIONS['T']}")
+    else:
+        s.say(f"ADJUST S ({ADJUST_DIRECTIONS['S']}): not implemented; the model stays ADJUST T")
 
 
 def fit_table(result, changes) -> str:
@@ -187,17 +227,11 @@ def cmd_fit(s: Session, args: list[str], line: Line) -> None:
     s.say(fit_table(result, step.changes))
 
 
-def _require_fit(s: Session, what: str):
-    if s.result is None:
-        raise ValueError(f"{what} shows the residuals of the last FIT: FIT first")
-    return s.result
-
-
 def cmd_slist(s: Session, args: list[str], line: Line) -> None:
     """SLIST: the residual listing of the last FIT (masks as they are now)."""
     from ..listing import format_listing
 
-    result = _require_fit(s, "SLIST")
+    result = require_fit(s, "SLIST")
     if s.stale:
         s.say("SLIST: the model or the masks changed since the last FIT; residuals and 'used' are that FIT's")
     s.say(format_listing(s.run, result, s.masked))
@@ -292,60 +326,52 @@ def cmd_show(s: Session, args: list[str], line: Line) -> None:
         s.say(f"last FIT: Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f}, N {int(s.result.n_obs)} ({state})")
 
 
-def cmd_graph(s: Session, args: list[str], line: Line) -> None:
-    """G...: draw TPOINT's named plot of the last FIT (:func:`pointax.plots.tpoint_graph`);
-    GC FILE writes it."""
-    from ..plots import tpoint_graph
+def _noted(word: str):
+    """The command of a display setting of :data:`NOTED_SETTINGS`: a note, no effect."""
 
-    result = _require_fit(s, "G")
-    command = " ".join([line.text.split("!", 1)[0].split()[0]] + args)
-    s.figure = tpoint_graph(command, result, s.observations())
-    s.say(f"{command.upper()}: drawn (GC FILE writes it)")
+    def cmd_noted(s: Session, args: list[str], line: Line) -> None:
+        shown = f" ({' '.join(args)})" if args else ""
+        s.say(f"{word}: display setting accepted{shown}; it changes nothing in pointax's plots")
 
-
-GC_DEVICES = {"P": "colour PostScript", "B": "black-and-white PostScript"}
-"""TPOINT's GC device letters (``GC P`` writes ``tpoint.ps``; ``GC P FILE``)."""
+    cmd_noted.__doc__ = f"{word}: TPOINT display setting, accepted with a note (no effect on pointax's plots)."
+    return cmd_noted
 
 
-def cmd_gc(s: Session, args: list[str], line: Line) -> None:
-    """GC FILE: write the last figure in the format of the extension (.png, .svg,
-    .pdf; .ps and .eps give PostScript); TPOINT's GC P [FILE] and GC B [FILE] too
-    (default file tpoint.ps; drawn in colour either way)."""
-    from ..plots import save_figure
+def _skipped(word: str):
+    """The command of a TPOINT command pointax does not run (:data:`NOT_IMPLEMENTED`):
+    a one-line note naming it; the script goes on."""
 
-    device = args[0].upper() if args and args[0].upper() in GC_DEVICES and "." not in args[0] else None
-    if device is not None:
-        args = args[1:] or ["tpoint.ps"]
-    if len(args) != 1:
-        raise ValueError("GC needs one file name (or TPOINT's GC P [FILE], GC B [FILE])")
-    if s.figure is None:
-        raise ValueError("GC: no figure yet (draw one with a G command, e.g. G S A)")
-    note = ""
-    if device == "B":
-        note = " (GC B asks for black and white: pointax draws in colour)"
-    s.say(f"GC: {save_figure(s.figure, line.path(args[0]))}{note}")
+    def cmd_skipped(s: Session, args: list[str], line: Line) -> None:
+        s.say(f"{word}: TPOINT's command to {NOT_IMPLEMENTED[word]}: not implemented in pointax, skipped")
+
+    cmd_skipped.__doc__ = f"{word}: TPOINT's command to {NOT_IMPLEMENTED[word]}; not implemented (a note)."
+    return cmd_skipped
 
 
-def cmd_capt(s: Session, args: list[str], line: Line) -> None:
-    """CAPT TEXT: the caption of model files written from now on."""
-    s.caption = " ".join(args) or None
-    s.say(f"CAPT: {s.current_caption()}")
-
-
-def cmd_noted(s: Session, args: list[str], line: Line) -> None:
-    """Display settings (:data:`NOTED_SETTINGS`): accepted, with a note."""
-    word = line.text.split("!", 1)[0].split()[0].upper()
-    s.say(f"{word}: display setting accepted; it changes nothing in pointax's plots")
+def _first_line(fn) -> str:
+    """The first sentence of ``fn``'s docstring, on one line (what HELP shows)."""
+    paragraph = " ".join((fn.__doc__ or "").strip().split("\n\n")[0].split())
+    paragraph = re.sub(r":\w+:`~?([^`]*)`", r"\1", paragraph).replace("``", "")
+    end = re.search(r"(?<!\.)\.(\s|$)", paragraph)
+    return paragraph if end is None else paragraph[: end.start() + 1]
 
 
 def cmd_help(s: Session, args: list[str], line: Line) -> None:
-    """HELP: the commands."""
+    """HELP [WORD]: the commands (or one of them): what pointax runs, the display
+    settings it notes, and TPOINT's commands it does not implement."""
+    from .parser import resolve
+
+    if args:
+        word = resolve(args[0])
+        fn = COMMAND_FUNCTIONS.get(word)
+        s.say(f"  {word:<7s} {_first_line(fn) if fn else _RUNNER_HELP.get(word, '')}")
+        return
     for word in COMMANDS:
         fn = COMMAND_FUNCTIONS.get(word)
-        doc = (fn.__doc__ or "").strip().split("\n")[0] if fn else _RUNNER_HELP.get(word, "")
-        s.say(f"  {word:<7s} {doc}")
-    s.say("  G...    " + (cmd_graph.__doc__ or "").strip().split("\n")[0])
-    s.say(f"  accepted with a note: {' '.join(NOTED_SETTINGS)}")
+        s.say(f"  {word:<7s} {_first_line(fn) if fn else _RUNNER_HELP.get(word, '')}")
+    s.say("  G...    " + _first_line(cmd_graph))
+    s.say(f"  noted, no effect: {' '.join(NOTED_SETTINGS)}")
+    s.say(f"  TPOINT's, not implemented (a note): {' '.join(NOT_IMPLEMENTED)} {' '.join(GRAPHICS_NOT_DRAWN)}")
 
 
 _RUNNER_HELP = {
@@ -372,10 +398,16 @@ COMMAND_FUNCTIONS = {
     "UNMASK": cmd_unmask,
     "FAUTO": cmd_fauto,
     "SHOW": cmd_show,
+    "ADJUST": cmd_adjust,
     "G": cmd_graph,
     "GC": cmd_gc,
     "CAPT": cmd_capt,
-    "NOTED": cmd_noted,
+    "PLTZ": cmd_pltz,
     "HELP": cmd_help,
+    **{word: _noted(word) for word in NOTED_SETTINGS},
+    **{word: _skipped(word) for word in NOT_IMPLEMENTED},
 }
-"""Resolved command word -> function."""
+"""Resolved command word (:func:`pointax.procedures.parser.resolve`) -> function."""
+
+LIGHT_COMMANDS = frozenset({"HELP", "CAPT", "ADJUST", "PLTZ", *NOTED_SETTINGS, *NOT_IMPLEMENTED})
+"""Commands that compute nothing (no JAX): :meth:`Session.ready` is not called for them."""

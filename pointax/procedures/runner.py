@@ -1,6 +1,7 @@
 """Running TPOINT command lines: scripts, procedures and interactive input.
 
-* ``PROC NAME`` ... ``RETURN`` defines a procedure (its lines are kept, not run);
+* ``PROC NAME [free text]`` ... ``RETURN`` defines a procedure (its lines are kept,
+  not run; the text after the name is a comment);
   ``CALL NAME`` or ``NAME`` alone runs it; ``INPRO FILE`` reads a file of procedure
   definitions (lines outside PROC ... RETURN there are an error).
 * ``END``, ``EXIT`` and ``QUIT`` stop reading the current file (or standard input).
@@ -20,7 +21,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO
 
-from .commands import COMMAND_FUNCTIONS
+from .commands import COMMAND_FUNCTIONS, LIGHT_COMMANDS
 from .parser import PLOT_PROCEDURES, Line, ProcedureError, lines_of, read_script, resolve, split
 from .session import Session
 
@@ -34,6 +35,15 @@ _STOP = ("END", "EXIT", "QUIT")
 
 class _Stop(Exception):
     """END, EXIT or QUIT: stop reading the current input."""
+
+
+def _split_or_none(line: Line) -> tuple[str, list[str]] | None:
+    """:func:`split` of a line inside a procedure's definition; a line that cannot be
+    read (an unclosed quote) is kept as it is, and its error comes when it runs."""
+    try:
+        return split(line.text)
+    except ValueError:
+        return ("", [])
 
 
 class Runner:
@@ -113,11 +123,11 @@ class Runner:
         Raises:
             ProcedureError: naming the line, for an unknown command or a failure.
         """
-        parsed = split(line.text)
-        if parsed is None:
-            return
-        word, args = parsed
         try:
+            parsed = split(line.text)
+            if parsed is None:
+                return
+            word, args = parsed
             what = resolve(word, self.session.procedures)
         except ValueError as err:
             raise ProcedureError(line, str(err)) from None
@@ -135,7 +145,11 @@ class Runner:
                 raise ProcedureError(line, "CALL needs one procedure name")
             self._call(line, name)
         else:
+            if what == "G":  # the graphics word itself names the plot (GSCAT, GAM, G)
+                args = [word, *args]
             try:
+                if what not in LIGHT_COMMANDS:
+                    self.session.ready()
                 COMMAND_FUNCTIONS[what](self.session, args, line)
             except ProcedureError:
                 raise
@@ -148,8 +162,11 @@ class Runner:
     # ------------------------------------------------------------------ procedures
 
     def _define(self, line: Line, args: list[str], rest: Iterator[Line] | None) -> None:
-        if len(args) != 1:
-            raise ProcedureError(line, "PROC needs one procedure name")
+        """PROC NAME [free text]: keep the lines up to RETURN as procedure NAME (the
+        text after the name is a comment, as observatories write it:
+        ``PROC A9   (9 favourite plots for an altaz)``)."""
+        if not args:
+            raise ProcedureError(line, "PROC needs a procedure name (PROC NAME [comment])")
         name = args[0].upper()
         if name not in PLOT_PROCEDURES:  # TPOINT's A9 and E9 are procedures: redefinable
             try:
@@ -160,7 +177,7 @@ class Runner:
                 raise ProcedureError(line, f"PROC {name}: that is a command's name (or abbreviation)")
         body: list[Line] = []
         for inner in rest if rest is not None else ():
-            parsed = split(inner.text)
+            parsed = _split_or_none(inner)
             if parsed is not None and parsed[0] == "RETURN":
                 self.session.procedures[name] = body
                 return
@@ -179,7 +196,10 @@ class Runner:
             raise ProcedureError(line, f"INPRO: {path}: {err.strerror or err}") from None
         before = set(self.session.procedures)
         for inner in lines:
-            parsed = split(inner.text)
+            try:
+                parsed = split(inner.text)
+            except ValueError as err:
+                raise ProcedureError(inner, str(err)) from None
             if parsed is None:
                 continue
             if parsed[0] != "PROC":

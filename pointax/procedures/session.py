@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import sys
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any, TextIO
 
 import numpy as np
@@ -68,7 +69,14 @@ class Session:
         refraction: refraction constants (A, B) of the model file INMOD read, written
             back by OUTMOD (None: 0, 0).
         procedures: defined procedures, by upper-case name: their lines.
-        figure: the last figure drawn by a G command.
+        figure: the current figure: the last plot drawn, or the PLTZ page.
+        show_caption: whether plots show the caption (CAPT ON / CAPT OFF).
+        zone: the PLTZ panel the next plot goes in (None: a whole figure).
+        page: ``(figure, axes)`` of the open PLTZ page (None when none is open).
+        device: the file the last GC wrote (GC alone keeps it).
+        prepare: called once, before the first command that computes (``pointax
+            tpoint`` turns JAX's compilation cache on there, so that a script that
+            only asks for HELP or fails at its first word never imports JAX).
     """
 
     out: TextIO = dataclasses.field(default_factory=lambda: sys.stdout)
@@ -87,10 +95,21 @@ class Session:
     refraction: tuple[float, float] | None = None
     procedures: dict[str, list] = dataclasses.field(default_factory=dict)
     figure: Any = None
+    show_caption: bool = True
+    zone: str | None = None
+    page: Any = None
+    device: str | None = None
+    prepare: Callable[[], Any] | None = None
 
     def say(self, text: str = "") -> None:
         """Print ``text`` to :attr:`out`."""
         print(text, file=self.out)
+
+    def ready(self) -> None:
+        """Run :attr:`prepare` (once) before a command that computes."""
+        prepare, self.prepare = self.prepare, None
+        if prepare is not None:
+            prepare()
 
     def require_run(self):
         """The run; ValueError when INDAT has not read one."""
@@ -128,6 +147,7 @@ class Session:
         return Observations(obs.encoder, obs.target, self.weights(), obs.convention)
 
     def current_caption(self) -> str:
+        """The caption CAPT set, else the run's, else ``'pointax tpoint'``."""
         if self.caption:
             return self.caption
         return self.run.caption if self.run is not None else "pointax tpoint"
