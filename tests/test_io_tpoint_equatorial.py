@@ -327,11 +327,13 @@ def test_fit_writes_the_runs_refraction_constants(tmp_path):
 def test_one_line_model_file_reads_as_the_line_layout(tmp_path):
     lines = read_model(MMT_MOD)
     text = format_model(lines.terms, lines.caption, lines.n_obs, lines.sky_rms, lines.refraction, layout="one-line")
-    assert text.count("\n") == 1 and text.rstrip().endswith("| END") and " | T  " not in text
+    # TPOINT's one-line layout: fields between '|', no END (tests/test_tpoint_files.py).
+    assert text.count("\n") == 1 and text.startswith(f"{lines.caption}|T|   80|") and "END" not in text
     one = parse_model(text, "one.mod")
     assert [(t.name, t.value, t.sigma, t.fixed) for t in one.terms] == [(t.name, t.value, t.sigma, t.fixed) for t in lines.terms]
     assert (one.caption, one.n_obs, one.sky_rms, one.refraction) == (lines.caption, lines.n_obs, lines.sky_rms, lines.refraction)
-    # Hand-written, the way a newer TPOINT writes it, with '=' and '&' flags.
+    # pointax's earlier one-line form (the line layout's records between '|', END last)
+    # still reads, with '=' and '&' flags.
     hand = parse_model("Caption here|T 80 0.93 42.06 -0.0485|IA +1209.2612 1.28|=IE -2.9933|&HACA2 +1.5 0.2|END", "h.mod")
     assert hand.names == ["IA", "IE", "HACA2"] and hand.terms[1].fixed and hand.terms[2].parallel
     assert hand.refraction == (42.06, -0.0485)

@@ -4,9 +4,11 @@ importable from here too); the record syntax both share, :mod:`pointax.io.tpoint
 
 Input file layout (as TPOINT reads it)::
 
-    ! comment lines start with '!' (a '!' later on a line starts a trailing comment)
+    ! comment lines start with '!' or ';' (a '!' or ';' later on a line starts a
+    ! trailing comment: "10.58 37.42 10.55 37.49 0.44 ; [0026] star 26")
     Caption line                               first non-comment line, free text
-    : ALTAZ                                    option records, ':' then keywords
+    : ALTAZ                                    option records, ':' then a keyword (each
+                                               applied or warned of: read_tpoint)
     +31 41 19.6 2021 8 21 13.0 741 2608 0.75   run parameters: latitude d m s, then optional
                                                date, temperature C, pressure mB,
                                                height m, humidity, wavelength, lapse
@@ -60,7 +62,22 @@ from .tpoint_model import (  # noqa: F401  (the model files' names: importable f
     refraction_arcsec,
     write_model,
 )
-from .tpoint_records import MOUNTS, TpointFormatError, record_numbers, records
+from .tpoint_records import (  # noqa: F401  (the option names: importable from here, as before)
+    ALTAZ_OPTION,
+    EQUATORIAL_OPTIONS,
+    MOUNT_OPTIONS,
+    MOUNTS,
+    NO_DIURNAL_ABERRATION,
+    ROTATOR_OPTIONS,
+    UNAPPLIED_OPTIONS,
+    UNSUPPORTED_MOUNT_OPTIONS,
+    OptionRecord,
+    TpointFormatError,
+    check_options,
+    option_records,
+    record_numbers,
+    records,
+)
 
 __all__ = [
     "TpointFormatError",
@@ -93,13 +110,6 @@ RUN_PARAMETER_FIELDS = (
     "wavelength (micron)",
     "lapse rate (K/m)",
 )
-ALTAZ_OPTION = "ALTAZ"
-EQUATORIAL_OPTIONS = frozenset({"EQUAT", "GERMAN", "FORK"})
-UNSUPPORTED_MOUNT_OPTIONS = frozenset({"ALTALT", "XY"})
-MOUNT_OPTIONS = frozenset({ALTAZ_OPTION}) | EQUATORIAL_OPTIONS | UNSUPPORTED_MOUNT_OPTIONS
-"""The option records that say a run's mount."""
-ROTATOR_OPTIONS = frozenset({"ROTTEL", "ROTNL", "ROTNR", "ROTCL", "ROTCR"})
-"""Option records that say each observation record ends with a rotator angle."""
 
 
 def _altaz_layout(width: int) -> tuple[Group, ...]:
@@ -162,6 +172,7 @@ class TpointRun:
     path: str
     caption: str
     options: tuple[str, ...]
+    """The option records' keywords, upper case, in file order."""
     parameters: RunParameters
     observed: np.ndarray
     """``(n, 2)`` observed (catalogue) position, radians: alt-az, azimuth and elevation
@@ -172,7 +183,8 @@ class TpointRun:
     file's convention; equatorial, the telescope's hour angle and declination as written
     (beyond +-pi/2 on the other side of the pier)."""
     extra: np.ndarray
-    """``(n, k)`` further numbers per row (k = 0 or 1, e.g. a rotator angle), as written."""
+    """``(n, k)`` further numbers per row after the positions (k = 0 or 1: an auxiliary
+    reading such as a rotator angle), as written."""
     lines: np.ndarray
     """``(n,)`` line number of each observation in the file."""
     azimuth: str
@@ -196,6 +208,8 @@ class TpointRun:
     rotator: np.ndarray | None = None
     """``(n,)`` rotator angle, radians, when a rotator option says the records carry
     one (not used by any fit)."""
+    option_records: tuple[OptionRecord, ...] = ()
+    """The option records with their arguments and line numbers."""
 
     @property
     def latitude(self) -> float:
@@ -252,19 +266,11 @@ def _run_parameters(path: str, lineno: int, tokens: list[str]) -> RunParameters:
 
 def _mount_of(path: str, lineno: int, options: list[str], mount: str | None) -> str:
     """'altaz' or 'equatorial': the file's mount option, else ``mount``; refuse both
-    missing, a contradiction, and mounts pointax does not read."""
-    said = MOUNT_OPTIONS.intersection(options)
-    unsupported = said & UNSUPPORTED_MOUNT_OPTIONS
-    if unsupported:
-        raise TpointFormatError(
-            path, lineno, f"mount option {', '.join(sorted(unsupported))}: pointax reads TPOINT alt-az (': ALTAZ') "
-            "and equatorial (': EQUAT', ': GERMAN', ': FORK') runs"
-        )
+    missing, and a file that contradicts ``mount``."""
+    said = MOUNT_OPTIONS.intersection(options)  # supported and consistent: check_options
     in_file = "altaz" if ALTAZ_OPTION in said else ("equatorial" if said else None)
     if mount is not None and mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
-    if in_file and len({"altaz" if o == ALTAZ_OPTION else "equatorial" for o in said}) > 1:
-        raise TpointFormatError(path, lineno, f"contradictory mount options: {', '.join(sorted(said))}")
     if in_file and mount and in_file != mount:
         raise TpointFormatError(
             path, lineno, f"the file says {in_file} (option{'s' if len(said) > 1 else ''} {', '.join(sorted(said))}) "
@@ -356,7 +362,7 @@ def parse_tpoint(
     if mount is not None and mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
     caption = None
-    options: list[str] = []
+    options: list[OptionRecord] = []
     params = None
     kind = None
     rows, extra, lines = [], [], []
@@ -370,11 +376,12 @@ def parse_tpoint(
         if line.startswith(":"):
             if params is not None:
                 raise TpointFormatError(path, lineno, f"option record {line!r} after the run-parameters record")
-            options.extend(word.upper() for word in line[1:].split())
+            options.extend(option_records(path, lineno, line))
             continue
         tokens = line.split()
         if params is None:
-            kind = _mount_of(path, lineno, options, mount)
+            check_options(path, options)
+            kind = _mount_of(path, lineno, [o.keyword for o in options], mount)
             params = _run_parameters(path, lineno, tokens)
             continue
         if n_columns is None:
@@ -403,12 +410,14 @@ def parse_tpoint(
     if all(g.width == 1 for g in layout):
         check_not_radians(TpointFormatError, path, lines, _radian_looking_columns(kind, layout, values))
     warn_duplicates(path, np.column_stack([values, extras]), lines)
-    rotator = _rotator(path, lines, options, extras, n_columns)
+    keywords = [o.keyword for o in options]
+    rotator = _rotator(path, lines, keywords, extras, n_columns)
     constants = _refraction_constants(params) if refraction is None else tuple(float(x) for x in refraction)
     common = dict(
         path=path,
         caption=caption,
-        options=tuple(options),
+        options=tuple(keywords),
+        option_records=tuple(options),
         parameters=params,
         extra=extras,
         lines=np.asarray(lines),
@@ -542,6 +551,18 @@ def read_tpoint(
     it. Terms see the mechanical reading, so those of declination-index,
     collimation and non-perpendicularity type change sign on the sky across the pier,
     as TPOINT's do (:mod:`pointax.terms.equatorial`).
+
+    **Option records** (``: KEYWORD``, any case; one record may hold several) are applied or warned
+    of: the mount options above; ``: NODA`` (no diurnal aberration: pointax applies
+    none); the rotator options below; ``: ALTALT``, ``: XY`` and ``: GIMBAL`` are
+    refused (mounts pointax does not read from TPOINT files); ``: ALLSKY`` and any
+    option pointax does not know get an :class:`~pointax.io.InputWarning` naming it,
+    the file and the line. Contradictory mount options (``: ALTAZ`` with ``: EQUAT``,
+    ``: GERMAN`` with ``: FORK``) raise, naming both lines. ``run.option_records``
+    keeps them with their lines.
+
+    **Comments**: '!' or ';' starts a comment, at the start of a line or after a
+    record (``10.58 37.42 10.55 37.49 0.44 ; [0026] ...``).
 
     Any record may end with one more number: it is kept in ``run.extra``; with a
     rotator option (``: ROTNR``, ``: ROTNL``, ``: ROTTEL``, ``: ROTCL``, ``: ROTCR``) it

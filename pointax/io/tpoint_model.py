@@ -12,8 +12,21 @@ Model file layout::
      =NPAE      +0.0000                        '=': fixed (no sigma)
     END
 
-or the same records on one line, separated by ``|`` (``caption | T 80 ... | IA
-+1209.2612 1.28477 | ... | END``).
+or TPOINT's one-line layout, every field of the model on one line between ``|``, no
+END (as TPOINT wrote it for the MMT; fields numbered from 1)::
+
+    MMT ...|T|   70|   0.7909|   0.5310|   0.4401|   0.8449|   0.9526|   41.771|  -0.0488|         |  |IA      |  +14.2662|     2.24687|  |IE      | ...|3-5
+
+    1 caption, 2 method letter, 3 N, 4-5 two numbers pointax does not interpret,
+    6-7 the RMS of the x and y residuals (alt-az: dA cos E, dE), 8 Sky RMS,
+    9-10 refraction A and B, 11 a field pointax does not interpret (blank here),
+    then four fields a term: flags ('&', '='), name, value, sigma; last, the
+    observations masked in the fit ('3-5': the 3rd to 5th, counted from 1).
+
+A fit of the MMT run of 2020-07-08 with its observations 3-5 masked reproduces
+fields 6, 7 and 8 and every term of such a file (tests/test_tpoint_files.py).
+pointax's earlier one-line form, the line layout's records between ``|`` (``caption |
+T 80 ... | IA +1209.2612 1.28477 | ... | END``), is read too.
 
 pointax sums all sky offsets of a model (TPOINT's "parallel"); TPOINT's default of
 chaining terms one after another differs only in second order of the coefficients.
@@ -29,6 +42,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import re
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -51,7 +65,9 @@ __all__ = [
 ]
 
 MODEL_LAYOUTS = ("lines", "one-line")
-"""The layouts of model files pointax reads and writes."""
+"""The layouts of model files pointax reads and writes: a record a line, or TPOINT's
+one-line layout."""
+_MASK_ITEM = re.compile(r"(\d+)(?:-(\d+))?")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,10 +97,29 @@ class TpointModelFile:
     method: str | None = None
     """The letter that starts the fit-summary record ('T' or 'S')."""
     path: str = "<string>"
+    xy_rms: tuple[float, float] | None = None
+    """RMS of the x and y residuals, arcsec (alt-az: dA cos E and dE), where the
+    file gives them (the one-line layout)."""
+    masked: tuple[int, ...] = ()
+    """Observations masked in the fit, numbered from 1 in the run's order (the one-line
+    layout's last field)."""
+    uninterpreted: tuple[str, ...] = ()
+    """Fields 4, 5 and 11 of a one-line file as written (stripped): their meaning is
+    not known to pointax; written back as they were."""
+    layout: str = "lines"
+    """The layout the file was read from (:data:`MODEL_LAYOUTS`)."""
 
     @property
     def names(self) -> list[str]:
         return [t.name for t in self.terms]
+
+    def text(self, layout: str | None = None) -> str:
+        """This model file's text in ``layout`` (default: the one it was read from),
+        every field it holds written back (:func:`format_model`)."""
+        return format_model(
+            self.terms, self.caption, self.n_obs, self.sky_rms, self.refraction or (0.0, 0.0), layout or self.layout,
+            xy_rms=self.xy_rms, masked=self.masked, uninterpreted=self.uninterpreted,
+        )
 
     def values(self) -> dict[str, float]:
         """Term values in radians, by name."""
@@ -152,8 +187,132 @@ def _model_records(text: str, path: str):
     yield from stream
 
 
+ONE_LINE_HEADER = (
+    "caption",
+    "method letter",
+    "number of observations",
+    "uninterpreted",
+    "uninterpreted",
+    "x RMS (arcsec)",
+    "y RMS (arcsec)",
+    "Sky RMS (arcsec)",
+    "refraction A (arcsec)",
+    "refraction B (arcsec)",
+    "uninterpreted",
+)
+"""The fields that open a model file of TPOINT's one-line layout."""
+ONE_LINE_TERM = ("flags", "term name", "value (arcsec)", "sigma (arcsec)")
+"""The four fields of each term of the one-line layout."""
+
+
+def _is_tpoint_one_line(line: str) -> bool:
+    """Whether ``line`` is a whole model in TPOINT's one-line layout: the opening
+    fields, four a term, the masked observations last (and no END field)."""
+    fields = [f.strip() for f in line.split("|")]
+    body = len(fields) - len(ONE_LINE_HEADER)
+    method = fields[1] if len(fields) > 1 else "?"
+    letter = method == "" or (len(method) == 1 and method.isalpha())
+    return body >= 1 and body % 4 == 1 and fields[-1].upper() != "END" and letter
+
+
+def _one_line_number(path: str, lineno: int, fields: list[str], k: int, name: str) -> float | None:
+    """Field ``k`` (from 0) of a one-line model as a number, None if blank."""
+    if not fields[k]:
+        return None
+    return record_numbers(path, lineno, [fields[k]], (name,), "one-line model", first=k + 1)[0]
+
+
+def _one_line_term(path: str, lineno: int, fields: list[str], k: int) -> ModelTerm:
+    """The term whose four fields start at field ``k`` (from 0)."""
+    flags, name = fields[k], fields[k + 1].upper()
+    if set(flags) - set("&="):
+        raise TpointFormatError(path, lineno, f"one-line model: field {k + 1} (flags) {flags!r}: expected '&', '=' or blank")
+    if not name or not name[0].isalpha():
+        raise TpointFormatError(path, lineno, f"one-line model: field {k + 2} (term name) {fields[k + 1]!r} is not a name")
+    value = _one_line_number(path, lineno, fields, k + 2, ONE_LINE_TERM[2])
+    if value is None:
+        raise TpointFormatError(path, lineno, f"one-line model: field {k + 3} (value of {name}) is blank")
+    sigma = _one_line_number(path, lineno, fields, k + 3, ONE_LINE_TERM[3])
+    return ModelTerm(name, value, sigma, fixed="=" in flags, parallel="&" in flags, line=lineno)
+
+
+def _masked_numbers(path: str, lineno: int, text: str, field: int) -> tuple[int, ...]:
+    """The observation numbers of a mask field: ``3-5``, ``3-5,9``, ``3 4 9``."""
+    numbers: list[int] = []
+    for item in text.replace(",", " ").split():
+        match = _MASK_ITEM.fullmatch(item)
+        first, last = (int(match[1]), int(match[2] or match[1])) if match else (0, 0)
+        if not 1 <= first <= last:
+            raise TpointFormatError(
+                path, lineno, f"one-line model: field {field} (masked observations) {text!r}: expected numbers "
+                "and ranges such as '3-5,9'"
+            )
+        numbers.extend(range(first, last + 1))
+    return tuple(numbers)
+
+
+def _mask_ranges(numbers) -> str:
+    """``(3, 4, 5, 9)`` -> ``'3-5,9'``."""
+    ranges: list[list[int]] = []
+    for n in sorted(set(int(k) for k in numbers)):
+        if ranges and n == ranges[-1][1] + 1:
+            ranges[-1][1] = n
+        else:
+            ranges.append([n, n])
+    return ",".join(f"{a}-{b}" if b > a else f"{a}" for a, b in ranges)
+
+
+def _parse_tpoint_one_line(path: str, lineno: int, line: str) -> TpointModelFile:
+    """A model file in TPOINT's one-line layout (see the module's description)."""
+    fields = [f.strip() for f in line.split("|")]
+    head = len(ONE_LINE_HEADER)
+    number = {k: _one_line_number(path, lineno, fields, k, ONE_LINE_HEADER[k]) for k in range(2, head) if k not in (3, 4, 10)}
+    n_obs = number[2]
+    if n_obs is not None and (n_obs != int(n_obs) or n_obs < 0):
+        raise TpointFormatError(path, lineno, f"one-line model: field 3 (number of observations) {fields[2]!r} is not a count")
+    terms = [_one_line_term(path, lineno, fields, k) for k in range(head, len(fields) - 1, 4)]
+    _check_unique(path, terms)
+    if not terms:
+        raise TpointFormatError(path, lineno, "one-line model holds no terms: the model is empty")
+    x_rms, y_rms = number[5], number[6]
+    refraction = None if number[8] is None or number[9] is None else (number[8], number[9])
+    return TpointModelFile(
+        caption=fields[0],
+        terms=tuple(terms),
+        n_obs=None if n_obs is None else int(n_obs),
+        sky_rms=number[7],
+        refraction=refraction,
+        method=fields[1] or None,
+        path=path,
+        xy_rms=None if x_rms is None or y_rms is None else (x_rms, y_rms),
+        masked=_masked_numbers(path, lineno, fields[-1], len(fields)),
+        uninterpreted=(fields[3], fields[4], fields[10]),
+        layout="one-line",
+    )
+
+
+def _check_unique(path: str, terms: list[ModelTerm]) -> None:
+    seen: set[str] = set()
+    for t in terms:
+        if t.name in seen:
+            raise TpointFormatError(path, t.line, f"term {t.name} appears twice")
+        seen.add(t.name)
+
+
 def parse_model(text: str, path: str = "<string>") -> TpointModelFile:
     """Parse the text of a TPOINT model file (see :func:`read_model`)."""
+    stream = records(text, path)
+    first = next(stream, None)
+    if first is not None and _is_tpoint_one_line(first[1]):
+        rest = [n for n, _ in stream]
+        if rest:
+            raise TpointFormatError(path, rest[0], "a record after a one-line model (the whole model on one line)")
+        return _parse_tpoint_one_line(path, *first)
+    return _parse_line_records(text, path)
+
+
+def _parse_line_records(text: str, path: str) -> TpointModelFile:
+    """A model file of records: a line each, or pointax's earlier one-line form."""
     caption = None
     header: dict = {}
     terms: list[ModelTerm] = []
@@ -256,10 +415,20 @@ def format_model(
     sky_rms: float | None = None,
     refraction: tuple[float, float] = (0.0, 0.0),
     layout: str = "lines",
+    *,
+    xy_rms: tuple[float, float] | None = None,
+    masked: Iterable[int] = (),
+    uninterpreted: tuple[str, ...] = (),
 ) -> str:
     """Text of a TPOINT model file. Values, ``sky_rms`` and ``refraction`` (TPOINT's
     constants A and B) in arcseconds. ``layout``: 'lines' (a record per line, TPOINT's
-    classic layout) or 'one-line' (every record on one line, separated by `` | ``).
+    classic layout) or 'one-line' (TPOINT's one-line layout, fields between ``|``: see
+    the module's description).
+
+    The one-line layout also holds ``xy_rms`` (the x and y RMS residuals, arcsec),
+    ``masked`` (the observations masked in the fit, numbered from 1) and the three
+    fields pointax does not interpret (``uninterpreted``, as read; blank when not
+    given); the line layout has no place for them.
 
     Numbers are written in TPOINT's fixed-point layout with as many decimals as it
     takes to read back the same float64 (at least TPOINT's 4 for values, 5 for sigmas),
@@ -275,8 +444,14 @@ def format_model(
     caption = caption.strip()
     if layout == "one-line" and "|" in caption:
         raise ValueError(f"a one-line model file's caption cannot hold '|': {caption!r}")
-    if not caption or caption.startswith("!"):
-        raise ValueError(f"a model-file caption must be non-empty text not starting with '!', got {caption!r}")
+    if not caption or caption[0] in "!;":
+        raise ValueError(f"a model-file caption must be non-empty text not starting with '!' or ';', got {caption!r}")
+    for t in terms:
+        _checked(t.value, f"the value of term {t.name}")
+    if layout == "one-line":
+        summary = _one_line_summary(n_obs, sky_rms, refraction, xy_rms, uninterpreted)
+        fields = [caption, *summary, *(f for t in terms for f in _one_line_term_fields(t)), _mask_ranges(masked)]
+        return "|".join(fields) + "\n"
     lines = [caption]
     if n_obs is not None:
         rms = _checked(sky_rms if sky_rms is not None else 0.0, "the Sky RMS")
@@ -286,15 +461,48 @@ def format_model(
             f"T  {n_obs:3d}  {exact_decimal(rms, 4):>8s}  {exact_decimal(ref_a, 3):>8s}  {exact_decimal(ref_b, 4):>8s}"
         )
     for t in terms:
-        _checked(t.value, f"the value of term {t.name}")
-        finite_sigma = t.sigma is not None and math.isfinite(t.sigma) and not t.fixed
-        sigma = f"  {exact_decimal(t.sigma, 5):>10s}" if finite_sigma else ""
-        flags = ("&" if t.parallel else " ") + ("=" if t.fixed else " ")
-        lines.append(f"{flags}{t.name:<8s} {exact_decimal(t.value, 4, sign=True):>12s}{sigma}")
+        sigma = f"  {exact_decimal(t.sigma, 5):>10s}" if _written_sigma(t) else ""
+        lines.append(f"{_flags(t)}{t.name:<8s} {exact_decimal(t.value, 4, sign=True):>12s}{sigma}")
     lines.append("END")
-    if layout == "one-line":
-        return " | ".join(" ".join(line.split()) if k else line for k, line in enumerate(lines)) + "\n"
     return "\n".join(lines) + "\n"
+
+
+def _flags(t: ModelTerm) -> str:
+    return ("&" if t.parallel else " ") + ("=" if t.fixed else " ")
+
+
+def _written_sigma(t: ModelTerm) -> bool:
+    return t.sigma is not None and math.isfinite(t.sigma) and not t.fixed
+
+
+def _one_line_summary(n_obs, sky_rms, refraction, xy_rms, uninterpreted) -> list[str]:
+    """Fields 2-11 of the one-line layout (blank where not known)."""
+
+    def number(value, decimals: int, what: str) -> str:
+        return " " * 9 if value is None else f"{exact_decimal(_checked(value, what), decimals):>9s}"
+
+    if len(uninterpreted) not in (0, 3):
+        raise ValueError(f"uninterpreted: fields 4, 5 and 11 of a one-line model (3 strings), got {uninterpreted!r}")
+    field4, field5, field11 = (f"{u:>9s}" for u in (uninterpreted or ("", "", "")))
+    x_rms, y_rms = xy_rms if xy_rms is not None else (None, None)
+    ref_a, ref_b = refraction if refraction is not None else (None, None)
+    return [
+        "T" if n_obs is not None else " ",
+        f"{int(n_obs):5d}" if n_obs is not None else " " * 5,
+        field4,
+        field5,
+        number(x_rms, 4, "the x RMS"),
+        number(y_rms, 4, "the y RMS"),
+        number(sky_rms, 4, "the Sky RMS"),
+        number(ref_a, 3, "refraction constant A"),
+        number(ref_b, 4, "refraction constant B"),
+        field11,
+    ]
+
+
+def _one_line_term_fields(t: ModelTerm) -> list[str]:
+    sigma = f"{exact_decimal(t.sigma, 5):>12s}" if _written_sigma(t) else " " * 12
+    return [_flags(t), f"{t.name:<8s}", f"{exact_decimal(t.value, 4, sign=True):>10s}", sigma]
 
 
 def refraction_arcsec(run) -> tuple[float, float]:
@@ -316,7 +524,9 @@ def write_model(
 
     ``refraction``: TPOINT's refraction constants A and B in arcseconds (a run's
     ``refraction`` divided by ``pointax.ARCSEC``), written in the fit-summary record.
-    ``layout``: 'lines' or 'one-line' (:func:`format_model`).
+    ``layout``: 'lines' or 'one-line' (:func:`format_model`); the one-line layout also
+    records, for a fit result, the RMS of the x and y residuals and the observations
+    the fit did not use (masked, numbered from 1 in the run's order).
 
     Only one-parameter terms in arcseconds with upper-case (TPOINT) names can be written
     (TPOINT's format holds one number per term, and reads names case-insensitively);
@@ -326,10 +536,12 @@ def write_model(
     """
     from ..fitting.result import FitResult
 
+    fit_fields: dict = {}
     if isinstance(source, FitResult):
         model, sigmas = source.model, dict(zip(source.names, np.asarray(source.sigmas)))
         n_obs, sky_rms = int(source.n_obs), float(source.sky_rms) / ARCSEC
         caption = caption or source.caption or "pointax model"
+        fit_fields = _fit_fields(source)
     else:
         model, sigmas, n_obs, sky_rms = source, {}, None, None
         caption = caption or "pointax model"
@@ -353,4 +565,15 @@ def write_model(
                 fixed=p.name in model.fixed,
             )
         )
-    Path(path).write_text(format_model(terms, caption, n_obs, sky_rms, refraction, layout))
+    if layout != "one-line":
+        fit_fields = {}
+    Path(path).write_text(format_model(terms, caption, n_obs, sky_rms, refraction, layout, **fit_fields))
+
+
+def _fit_fields(result) -> dict:
+    """The one-line layout's RMS of the x and y residuals (arcsec) and masked
+    observations (numbered from 1) of a fit result."""
+    used = np.asarray(result.used, bool)
+    residuals = np.asarray(result.residuals)[used] / ARCSEC
+    xy_rms = tuple(float(np.sqrt(np.mean(residuals[:, k] ** 2))) for k in (0, 1)) if used.any() else None
+    return {"xy_rms": xy_rms, "masked": tuple(int(k) + 1 for k in np.flatnonzero(~used))}
