@@ -9,6 +9,7 @@ the copies equal the originals.
 from __future__ import annotations
 
 from ..fitting.options import LOSS_NAMES, SOLVER_NAMES  # light: no JAX
+from ..io.offset_columns import UNIT_NAMES  # light: no numerical library
 
 __all__ = [
     "SOLVERS",
@@ -27,6 +28,8 @@ __all__ = [
     "RUN_FORMATS",
     "TPOINT_MOUNTS",
     "BASIC_EQUATORIAL",
+    "OFFSET_UNITS",
+    "OFFSET_SIGNS",
 ]
 
 SOLVERS = tuple(SOLVER_NAMES)
@@ -76,3 +79,9 @@ TPOINT_MOUNTS = ("altaz", "equatorial")
 
 BASIC_EQUATORIAL = ("IH", "ID", "CH", "NP", "MA", "ME")
 """TPOINT's six basic equatorial terms: :data:`pointax.terms.BASIC_EQUATORIAL`."""
+
+OFFSET_UNITS = UNIT_NAMES
+"""Units of offsets tables (``--units``): the keys of :data:`pointax.io.offsets.OFFSET_UNITS`."""
+
+OFFSET_SIGNS = ("observed-raw", "raw-observed")
+"""Signs of offsets tables (``--sign``): :data:`pointax.io.offsets.OFFSET_SIGNS`."""

@@ -69,8 +69,21 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         + ",".join(choices.HELIOSTAT_DEFAULT)
         + ")",
     )
+    p.add_argument(
+        "--model",
+        metavar="START.mod",
+        default=None,
+        help="start from a TPOINT model file (TPOINT's INMOD): its terms, their values as start values and its "
+        "'=' (fixed) flags; with --terms, --terms chooses the terms and the file gives the start values and "
+        "flags of those it holds (the others start at 0). TPOINT runs and offsets tables",
+    )
     p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="term form (default: linear, as TPOINT)")
-    p.add_argument("--fix", default="", help="terms to hold fixed at 0, comma separated")
+    p.add_argument(
+        "--fix",
+        default="",
+        help="terms to hold fixed at their start values (from --model; 0, with a warning, for a term with no start "
+        "value), comma separated",
+    )
     p.add_argument(
         "--residuals",
         choices=list(choices.RESIDUAL_FORMS),
@@ -97,8 +110,36 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         choices=list(FIT_FORMATS),
         default=None,
         help="input format (default: told from the file: a folder is paint, a file tpoint, gpoint or offsets; "
-        "gpoint: an RTS2 gpoint file; offsets: a table of pointing offsets az el daz del [errors], "
-        "arcsec, cross-elevation, with a header naming the columns)",
+        "gpoint: an RTS2 gpoint file; offsets: a table of pointing offsets az el daz del [errors] (degrees; offsets "
+        "in arcsec unless --units or the header says otherwise; cross-elevation dA cos E unless --plain-daz), "
+        "with a header naming the columns or --columns)",
+    )
+    p.add_argument(
+        "--columns",
+        metavar="SPEC",
+        default=None,
+        help="offsets tables: which column is which, the roles in column order ('_' skips a column), e.g. "
+        "_,az,el,dxel,del,dxel_err,del_err, or ROLE=COLUMN pairs with a 1-based number or a header name, e.g. "
+        "az=2,el=3,dxel=6,del=7 (roles: az el dxel|daz del daz_err del_err err)",
+    )
+    p.add_argument(
+        "--units",
+        choices=choices.OFFSET_UNITS,
+        default=None,
+        help="offsets tables: unit of the offsets and errors whose header names none (default: the header's, "
+        "e.g. 'dxel [arcmin]', else arcsec); positions are degrees",
+    )
+    p.add_argument(
+        "--plain-daz",
+        action="store_true",
+        help="offsets tables: the azimuth offset is a plain dA, not the cross-elevation offset dA cos E",
+    )
+    p.add_argument(
+        "--sign",
+        choices=choices.OFFSET_SIGNS,
+        default=None,
+        help="offsets tables: observed-raw (default, TPOINT's: the source was found at raw + offset) or "
+        "raw-observed (the table holds corrections)",
     )
     p.add_argument(
         "--loss",
@@ -138,6 +179,13 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument(
         "--quiet", action="store_true", help="no progress bar (paint: the leave-one-out folds; drawn only on a terminal)"
     )
+    p.add_argument(
+        "--loo",
+        choices=("auto", "yes", "no"),
+        default=None,
+        help="paint: leave-one-out fits: auto (default: where the samples allow, else skipped with a note), "
+        "yes (required: an error where too few samples) or no",
+    )
     return p
 
 
@@ -146,6 +194,13 @@ def add_fit_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("fit", help="fit a pointing model to a pointing run and print the report")
     add_fit_options(p)
     p.add_argument("--write-model", metavar="FILE", help="also write the fitted model as a TPOINT .mod file")
+    p.add_argument(
+        "--model-layout",
+        choices=("lines", "one-line"),
+        default="lines",
+        help="layout of --write-model's file: a record a line (default) or TPOINT's one-line layout "
+        "(with the x and y RMS and the masked observations)",
+    )
     p.add_argument(
         "--list",
         action="store_true",
@@ -196,7 +251,7 @@ class FitOutcome:
 def guarded(args: argparse.Namespace, body: Callable[[argparse.Namespace], int], prefix: str = _PREFIX) -> int:
     """Run ``body(args)`` after checking that ``args.data`` exists; a bad input
     (ValueError, KeyError, OSError) prints ``prefix: error: ...`` and gives 2."""
-    missing = missing_input([args.data])
+    missing = missing_input([args.data, getattr(args, "model", None)])
     if missing:
         return error(prefix, missing)
     try:
@@ -204,7 +259,7 @@ def guarded(args: argparse.Namespace, body: Callable[[argparse.Namespace], int],
     except (ValueError, KeyError) as err:
         return error(prefix, err)
     except OSError as err:
-        return error(prefix, os_error_text(err, args.data))
+        return error(prefix, os_error_text(err, err.filename or args.data))
 
 
 def run_fit(args: argparse.Namespace) -> int:
@@ -213,10 +268,32 @@ def run_fit(args: argparse.Namespace) -> int:
     return guarded(args, _fit)
 
 
-def _format(args) -> str:
-    from ..io.load import detect_format
+_OFFSETS_OPTIONS = (("--columns", "columns", None), ("--units", "units", None), ("--plain-daz", "plain_daz", False),
+                    ("--sign", "sign", None))  # fmt: skip
 
-    fmt = args.format or detect_format(args.data)
+
+def _offsets_options_given(args) -> list[str]:
+    return [option for option, name, default in _OFFSETS_OPTIONS if getattr(args, name, default) != default]
+
+
+def _format(args) -> str:
+    from ..io.load import FormatDetectionError, detect_format
+
+    given = _offsets_options_given(args)
+    fmt = args.format
+    if fmt is None:
+        try:
+            fmt = detect_format(args.data)
+        except FormatDetectionError:
+            if not given:
+                raise
+            fmt = "offsets"  # a table with no header: --columns or --units say it is one
+    if given and fmt != "offsets":
+        how = "is" if args.format else "looks like"
+        raise ValueError(
+            f"{' and '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to offsets tables; {args.data} {how} a {fmt} run"
+            + ("" if args.format else " (give --format offsets to read it as an offsets table)")
+        )
     if fmt not in FIT_FORMATS:
         raise ValueError(
             f"{args.data}: a {fmt} run; pointax fit reads {', '.join(FIT_FORMATS)} runs"
@@ -249,12 +326,19 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     """
     fmt = _format(args)
     output_only = getattr(args, "write_model", None)
+    if getattr(args, "model_layout", "lines") != "lines" and not output_only:
+        raise ValueError("--model-layout is the layout of --write-model's file: give --write-model FILE too")
     if fmt == "paint":
         _check_paint_options(args)
     elif fmt == "gpoint" and args.azimuth != "N-E":
         raise ValueError("--azimuth applies to TPOINT runs; gpoint files count azimuth from South through West")
+    if fmt != "paint" and getattr(args, "loo", None) is not None:
+        raise ValueError(f"--loo applies to PAINT heliostat runs (--format paint), not to a {fmt} run")
     if fmt != "tpoint" and getattr(args, "mount", None) is not None:
         raise ValueError(f"--mount applies to TPOINT runs whose files name no mount; this is a {fmt} run")
+    if fmt == "gpoint" and getattr(args, "model", None):
+        raise ValueError("--model reads TPOINT model files, for TPOINT runs and offsets tables; this is a gpoint run")
+    columns = _columns(args)
     loss = _loss(args, fmt)
 
     from ..compilation_cache import enable_compilation_cache
@@ -291,17 +375,19 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
         else:
             model = AltAz(terms, azimuth=run.azimuth, fixed=fixed, residual_form=args.residuals)
     elif fmt == "offsets":
-        run = load_run(args.data, "offsets", azimuth=args.azimuth)
-        terms = term_library.tpoint(args.terms if args.terms is not None else term_library.BASIC_ALTAZ, form=args.form)
-        model = AltAz(terms, azimuth=run.azimuth, fixed=term_library.names(args.fix), residual_form=args.residuals)
+        run = load_run(
+            args.data, "offsets", azimuth=args.azimuth, columns=columns, units=args.units,
+            cross_elevation=not args.plain_daz, sign=args.sign or "observed-raw",
+        )  # fmt: skip
+        terms, fixed = start_terms(args, term_library.BASIC_ALTAZ, {})
+        model = AltAz(terms, azimuth=run.azimuth, fixed=fixed, residual_form=args.residuals)
     else:
         run = load_run(args.data, "tpoint", azimuth=args.azimuth, mount=args.mount)
         if run.mount == "equatorial" and args.azimuth != "N-E":
             raise ValueError(f"{args.data}: --azimuth applies to alt-az runs; this run is equatorial")
         default = term_library.BASIC_EQUATORIAL if run.mount == "equatorial" else term_library.BASIC_ALTAZ
-        spec = args.terms if args.terms is not None else default
-        terms = term_library.tpoint(spec, form=args.form, **run.term_options())
-        model = run.model(terms, fixed=term_library.names(args.fix), residual_form=args.residuals)
+        terms, fixed = start_terms(args, default, run.term_options())
+        model = run.model(terms, fixed=fixed, residual_form=args.residuals)
     options = FitOptions(
         solver=args.solver,
         max_steps=args.max_steps,
@@ -324,6 +410,87 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     return FitOutcome(fmt=fmt, run=run, model=model, result=result, observations=obs, masked=masked, first=first)
 
 
+def _columns(args):
+    """``--columns`` as the reader's ``columns`` (None when not given)."""
+    text = getattr(args, "columns", None)
+    if text is None:
+        return None
+    from ..io.offset_columns import parse_columns_option
+
+    return parse_columns_option(text)
+
+
+def start_terms(args: argparse.Namespace, default, term_options: dict) -> tuple[tuple, list[str]]:
+    """The TPOINT terms and fixed names of a fit from ``--terms``, ``--model`` and
+    ``--fix``.
+
+    * the terms: ``--terms``, else the model file's (in its order), else ``default``;
+    * start values: the model file's, for the terms it holds; 0 for the others;
+    * fixed: the file's ``=`` terms among them, and ``--fix``, each at its start value.
+      A ``--fix`` term with no start value (no ``--model``, or not in the file) is
+      held at 0 with an :class:`pointax.io.InputWarning`: the other terms then absorb
+      what it would have taken up.
+
+    Raises:
+        ValueError: an unknown term (:class:`pointax.io.TpointFormatError` naming the
+            model file's line when the file holds it), a ``--fix`` term not fitted.
+    """
+    from .. import terms as term_library
+    from ..io.errors import warn_input
+
+    spec_fix = term_library.names(args.fix)
+    path = getattr(args, "model", None)
+    if not path:
+        spec = args.terms if args.terms is not None else default
+        terms = term_library.tpoint(spec, form=args.form, **term_options)
+        file_terms = {}
+        names = [t.name for t in terms]
+    else:
+        from ..io.tpoint_model import read_model
+        from ..io.tpoint_records import TpointFormatError
+        from ..units import ARCSEC
+
+        start = read_model(path)
+        file_terms = {t.name: t for t in start.terms}
+        names = term_library.names(args.terms) if args.terms is not None else list(start.names)
+        values = {n: file_terms[n].value * ARCSEC for n in names if n in file_terms}
+        try:
+            terms = term_library.tpoint(names, form=args.form, values=values, **term_options)
+        except ValueError:
+            for n in names:  # which one: name the model file's line when it holds the term
+                try:
+                    term_library.tpoint([n], form=args.form, **term_options)
+                except ValueError as err:
+                    if n in file_terms:
+                        raise TpointFormatError(path, file_terms[n].line, f"term record {n}: {err}") from None
+                    raise
+            raise
+    fitted = {p for t in terms for p in _parameter_names(t)}
+    unknown = [n for n in spec_fix if n not in fitted]
+    if unknown:
+        raise ValueError(f"--fix {','.join(unknown)}: not among the terms fitted ({' '.join(names)})")
+    fixed = [n for n in names if n in file_terms and file_terms[n].fixed]
+    fixed += [n for n in spec_fix if n not in fixed]
+    for n in spec_fix:
+        if n not in file_terms:
+            where = f"{n} is not in {path}" if path else "no --model START.mod"
+            warn_input(
+                f"--fix {n}",
+                None,
+                f"no start value ({where}): {n} is held at 0 and the other terms absorb what it would take up; "
+                f"give its value with --model START.mod (TPOINT's INMOD), or leave {n} out of --terms",
+            )
+    return terms, fixed
+
+
+def _parameter_names(term) -> list[str]:
+    """A term's parameter names as :attr:`pointax.Model.parameter_names` gives them."""
+    from ..terms.base import param_fields
+
+    fields = param_fields(term)
+    return [term.name if len(fields) == 1 else f"{term.name}.{f.name}" for f in fields]
+
+
 def _fit(args) -> int:
     outcome = fit_from_args(args)
     if outcome.fmt == "paint":
@@ -336,7 +503,9 @@ def _fit(args) -> int:
     if args.write_model:
         from ..io.tpoint_model import refraction_arcsec, write_model
 
-        write_model(args.write_model, result, refraction=refraction_arcsec(outcome.run))
+        write_model(
+            args.write_model, result, refraction=refraction_arcsec(outcome.run), layout=args.model_layout
+        )
     if args.plot:
         _plot(args.plot, outcome)
     if args.json:
@@ -347,6 +516,7 @@ def _fit(args) -> int:
             "caption": getattr(outcome.run, "caption", None),
             "form": args.form,
             "residuals": args.residuals,
+            "start_model": args.model,
             **result.to_dict(),
             "masked": [int(i) for i in outcome.masked.nonzero()[0]],
             "observations": observation_entries(outcome.run, result, outcome.masked),
@@ -391,6 +561,7 @@ def _check_paint_options(args) -> None:
         ("--residuals", args.residuals, "sky"),
         ("--mask", args.mask, ""),
         ("--mask-above", args.mask_above, None),
+        ("--model", getattr(args, "model", None), None),
         ("--list", getattr(args, "list", False), False),
         ("--plot", getattr(args, "plot", None), None),
     ):
@@ -408,7 +579,8 @@ def _fit_paint(args, loss: str) -> FitOutcome:
     reject = {} if args.reject is None else {"reject": args.reject}
     cal = calibrate_heliostat(
         run, terms, loss=loss, solver=args.solver, max_steps=args.max_steps, fixed=fixed,
-        progress=not args.quiet, **reject,
+        progress=not args.quiet, loo={None: None, "auto": None, "yes": True, "no": False}[getattr(args, "loo", None)],
+        **reject,
     )  # fmt: skip
     return FitOutcome(
         fmt="paint", run=run, model=cal.result.model, result=cal.result, observations=getattr(run, "observations", None),

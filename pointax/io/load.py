@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,7 @@ _DESCRIPTIONS = {
     "sun": "sun observations of a turntable: 'alpha beta sun_az sun_el [weight]' in degrees per line",
     "xy": "an X-Y mount run: 'L B L0 B0' in degrees per line",
     "offsets": "a table of pointing offsets (CSV or whitespace): az el daz del [errors], with a header naming "
-    "the columns or columns=",
+    "the columns, or read with --format offsets (and --columns when it has no header; columns= in Python)",
 }
 
 _GPOINT_HEADERS = ("altaz-manual", "altaz", "observatory", "gem")
@@ -80,10 +81,17 @@ _OFFSET_ELEVATIONS = ("el", "elevation", "alt", "altitude", "raw_el", "cmd_el", 
 
 def _offsets_header(lines: list[str]) -> bool:
     """Whether the first record is an offsets table's header: it names an azimuth, an
-    elevation and at least two offsets (``daz``, ``delta_el``, ``az_off``, ``dxel``)."""
+    elevation and at least two offsets (``daz``, ``delta_el``, ``az_off``, ``dxel``),
+    units in the names allowed (``dxel [arcmin]``, ``del/arcsec``)."""
+    from .offset_columns import header_fields, role_of, split_unit
+
     records = (line.split("#", 1)[0].split("!", 1)[0].strip() for line in lines)
     first = next((r for r in records if r), "")
-    words = [w.strip("\"'").lower().split("[")[0].split("(")[0] for w in first.replace(",", " ").split()]
+    fields = [f.strip("\"'") for f in header_fields(first, "," in first)]
+    roles = {role_of(f) for f in fields if f}
+    if {"azimuth", "elevation", "azimuth_offset", "elevation_offset"} <= roles:
+        return True
+    words = [split_unit(f)[0].lower() for f in fields if f]
     offsets = sum(w.startswith(("d", "delta")) or "off" in w or "xel" in w for w in words)
     return any(w in _OFFSET_AZIMUTHS for w in words) and any(w in _OFFSET_ELEVATIONS for w in words) and offsets >= 2
 
@@ -134,8 +142,8 @@ def detect_format(path: str | os.PathLike) -> str:
     if _offsets_header(lines):
         return "offsets"
 
-    # TPOINT: '!' comment lines, a caption, then records; an option record starts with ':'.
-    records = [line.split("!", 1)[0].strip() for line in lines if not line.lstrip().startswith("!")]
+    # TPOINT: '!' or ';' comment lines, a caption, then records; an option record starts with ':'.
+    records = [re.split(r"[!;]", line, maxsplit=1)[0].strip() for line in lines if line.lstrip()[:1] not in ("!", ";")]
     records = [r for r in records if r]
     if any(r.startswith(":") or r.upper() == "END" for r in records[1:]):
         return "tpoint"
@@ -175,7 +183,9 @@ def load_run(path: str | os.PathLike, format: str | None = None, **options: Any)
             (:func:`detect_format`).
         **options: the format's reader options (:data:`RUN_OPTIONS`): tpoint
             ``azimuth``, ``mount``, ``refraction`` (:func:`pointax.io.read_tpoint`); paint ``focal_spot``,
-            ``tower``, ``mirror_offset`` (:func:`pointax.io.read_paint`).
+            ``tower``, ``mirror_offset`` (:func:`pointax.io.read_paint`); offsets
+            ``columns``, ``units``, ``azimuth``, ``cross_elevation``, ``sign``
+            (:func:`pointax.io.read_offsets`).
 
     Returns:
         The format's run (:class:`~pointax.io.TpointRun`, :class:`~pointax.io.GpointRun`,

@@ -28,7 +28,7 @@ a ``#`` or ``!`` later on a line starts a trailing comment; blank lines are skip
 A first record with any field that is not a number is a header. Columns are found:
 
 * by header name (default), matching common names case-insensitively, with a unit
-  in brackets dropped (``"Az [deg]"`` is ``az``): ``az azimuth raw_az cmd_az enc_az``,
+  dropped (``"Az [deg]"`` is ``az``; units: below): ``az azimuth raw_az cmd_az enc_az``,
   ``el elevation alt altitude raw_el``, ``daz dxel xel delta_az az_off az_offset
   cross_el d_az``, ``del delta_el el_off el_offset d_el dalt alt_off``, and names
   with ``err``, ``sigma``, ``unc`` or ``std`` for the errors (``daz_err``,
@@ -41,6 +41,13 @@ A first record with any field that is not a number is a header. Columns are foun
 * without a header and without ``columns``: ``az el daz del`` and, when present,
   one error for both (5 columns) or ``daz_err del_err`` (6 columns).
 
+The first record is a header when one of its fields is not a number where the next
+record has a number; so a table whose rows start with a source name (``3C273 184.2
+34.1 ...``) has no header, and its first row is data. On the command line
+``--columns`` gives ``columns`` (``--columns _,az,el,dxel,del`` by position, ``_``
+skipping a column, or ``--columns az=2,el=3,dxel=4,del=5``; names or numbers,
+:func:`pointax.io.offset_columns.parse_columns_option`).
+
 Conventions (stated once, tested in ``tests/test_io_offsets.py``):
 
 * Sign: offsets are **observed minus raw** (TPOINT's sign): the source was found at
@@ -50,8 +57,12 @@ Conventions (stated once, tested in ``tests/test_io_offsets.py``):
   scans measure), with ``E`` the observed elevation ``E_raw + dE`` (TPOINT's
   definition); ``cross_elevation=False`` reads a plain azimuth difference ``dA``.
   Errors of the azimuth offset are read in the same sense.
-* Units: ``units`` is the unit of the offsets and errors: ``"arcsec"`` (default),
-  ``"arcmin"``, ``"deg"`` or ``"rad"``. Positions are always degrees.
+* Units: a unit in a header name is read (``dxel [arcmin]``, ``el (deg)``,
+  ``dxel/arcsec``, ``del_arcmin``, ``dxel ["]``: the forms and words are listed in
+  :mod:`pointax.io.offset_columns`), column by column. ``units`` (``--units``) is the
+  unit of the offsets and errors whose header names none: ``"arcsec"``, ``"arcmin"``,
+  ``"deg"`` or ``"rad"``; a header unit that differs from it is an error. Neither
+  given: **arcsec** for offsets and errors, **degrees** for positions.
 * Weights: with errors, each row's weight is ``1 / sigma^2`` with ``sigma^2`` the mean
   of the two on-sky variances (``(sigma_xel^2 + sigma_E^2) / 2``; a plain-dA error
   counts as ``sigma_dA cos E`` on the sky), normalised to mean 1, so that the weights
@@ -82,12 +93,15 @@ from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
 from .errors import FileFormatError
+from .offset_columns import UNIT_NAMES, header_fields, normalise, role_of, split_unit
 from .sanity import check_azimuth, check_not_radians, check_observed_elevation, warn_duplicates
 from .text import is_number, read_text
 
 __all__ = [
     "OFFSET_ROLES",
     "OFFSET_UNITS",
+    "OFFSET_SIGNS",
+    "DEFAULT_UNITS",
     "OffsetsFormatError",
     "OffsetsRun",
     "parse_offsets",
@@ -105,39 +119,21 @@ OFFSET_ROLES = (
 )
 """The roles a column can take, in the default positional order."""
 
-OFFSET_UNITS = {"arcsec": ARCSEC, "arcmin": 60 * ARCSEC, "deg": DEG, "rad": 1.0}
-"""Units of the offsets and errors -> radians per unit."""
+OFFSET_UNITS = dict(zip(UNIT_NAMES, (ARCSEC, 60 * ARCSEC, DEG, 1.0)))
+"""Units of the offsets and errors (and, from a header, of any column) -> radians per unit."""
+
+OFFSET_SIGNS = ("observed-raw", "raw-observed")
+"""Signs of the offsets: observed minus raw (TPOINT's, the default) or raw minus observed."""
+
+DEFAULT_UNITS = "arcsec"
+"""The unit of offsets and errors that neither ``units`` nor the header names."""
+
+_OFFSET_COLUMNS = ("azimuth_offset", "elevation_offset", "azimuth_error", "elevation_error", "error")
 
 MAX_OFFSET_DEG = 10.0
 """An offset larger than this (degrees) is refused as a unit mistake."""
 
 _REQUIRED = ("azimuth", "elevation", "azimuth_offset", "elevation_offset")
-
-# Header names (normalised: lower case, unit in brackets dropped, blanks and '-' as '_').
-_NAMES = {
-    "azimuth": {
-        "az", "azimuth", "azim", "az_deg", "azimuth_deg", "raw_az", "az_raw", "cmd_az", "az_cmd", "commanded_az",
-        "az_commanded", "enc_az", "az_enc", "encoder_az", "az_encoder", "requested_az", "az_req",
-    },
-    "elevation": {
-        "el", "elevation", "elev", "alt", "altitude", "el_deg", "elevation_deg", "alt_deg", "raw_el", "el_raw",
-        "cmd_el", "el_cmd", "commanded_el", "el_commanded", "enc_el", "el_enc", "encoder_el", "el_encoder",
-        "raw_alt", "alt_raw", "requested_el", "el_req",
-    },
-    "azimuth_offset": {
-        "daz", "dxel", "xel", "dx", "delta_az", "deltaaz", "delta_xel", "d_az", "d_xel", "az_off", "az_offset",
-        "off_az", "offset_az", "xel_off", "xel_offset", "off_xel", "offset_xel", "cross_el", "cross_elevation",
-        "crossel", "daz_cos_el", "dazcosel", "daz_cosel", "delta_cross_el", "az_offset_cos_el",
-    },
-    "elevation_offset": {
-        "del", "delev", "delta_el", "deltael", "d_el", "el_off", "el_offset", "off_el", "offset_el", "dalt",
-        "delta_alt", "d_alt", "alt_off", "alt_offset", "off_alt", "offset_alt", "dy",
-    },
-}
-_ERROR_WORDS = ("err", "sigma", "unc", "std")
-_AZ_WORDS = ("az", "xel", "cross")
-_EL_TOKENS = {"el", "del", "alt", "dalt", "elev", "delev", "elevation", "altitude", "eloff"}
-
 
 class OffsetsFormatError(FileFormatError):
     """A pointing-offset table could not be read; the message names file, line and
@@ -152,7 +148,8 @@ class OffsetsRun:
         path: the file.
         columns: role -> ``(1-based column number, header name or None)`` of every
             column used.
-        units: the unit of the offsets and errors as read (``"arcsec"``, ...).
+        units: the unit of the offsets and errors as read (``"arcsec"``, ...; ``"mixed"``
+            when the header gives them different units: see ``column_units``).
         cross_elevation: whether the azimuth offsets were read as ``dA cos E``.
         sign: ``"observed-raw"`` or ``"raw-observed"``, as read.
         azimuth: the file's azimuth convention ('N-E', 'S-E' or 'S-W').
@@ -165,6 +162,8 @@ class OffsetsRun:
         lines: ``(n,)`` line number of each row in the file.
         observations: :class:`pointax.Observations` for an alt-az model in the
             file's azimuth convention.
+        column_units: role -> unit of every column used, as read (from the header,
+            ``units`` or the defaults: degrees for positions, arcsec for offsets).
     """
 
     path: str
@@ -179,6 +178,7 @@ class OffsetsRun:
     weight: np.ndarray
     lines: np.ndarray
     observations: Observations
+    column_units: dict[str, str] = dataclasses.field(default_factory=dict)
 
     @property
     def observed(self) -> np.ndarray:
@@ -195,32 +195,8 @@ class OffsetsRun:
         return self.raw.shape[0]
 
 
-def _normalise(name: str) -> str:
-    name = name.strip().strip("\"'").lower()
-    name = re.sub(r"[\[(][^\])]*[\])]", "", name).strip()  # a unit in brackets
-    return re.sub(r"[\s\-./]+", "_", name).strip("_")
-
-
-def _role_of(name: str) -> str | None:
-    """The role a header name stands for, or None."""
-    n = _normalise(name)
-    for role, names in _NAMES.items():
-        if n in names:
-            return role
-    if any(w in n for w in _ERROR_WORDS):
-        rest = n
-        for w in ("uncertainty", "sigma", "error", "err", "unc", "std"):
-            rest = rest.replace(w, "_")
-        parts = [p for p in rest.split("_") if p]
-        az = any(any(w in p for w in _AZ_WORDS) for p in parts)
-        el = any(p in _EL_TOKENS for p in parts)
-        if az and not el:
-            return "azimuth_error"
-        if el and not az:
-            return "elevation_error"
-        if set(parts) <= {"pos", "position", "offset", "off", "pointing", "total", "radial"}:
-            return "error"
-    return None
+_normalise = normalise
+_role_of = role_of
 
 
 def _split(line: str, csv: bool) -> list[str]:
@@ -286,7 +262,8 @@ def _mapping(path, header_line, header, n_fields, columns) -> dict[str, tuple[in
                 if len(ks) > 1:
                     both = ", ".join(f"column {k + 1} ({header[k]!r})" for k in ks)
                     raise OffsetsFormatError(
-                        path, header_line, f"{both} all look like the {role} column; choose one with columns={{{role!r}: ...}}"
+                        path, header_line, f"{both} all look like the {role} column; choose one with columns={{{role!r}: ...}} "
+                        "(--columns on the command line)"
                     )
                 mapping[role] = (ks[0], header[ks[0]])
         else:
@@ -296,7 +273,8 @@ def _mapping(path, header_line, header, n_fields, columns) -> dict[str, tuple[in
                     path,
                     header_line,
                     f"{n_fields} columns and no header line: without names pointax reads 4 (az el daz del), 5 (... error) "
-                    "or 6 (... daz_err del_err) columns; give a header or columns=",
+                    "or 6 (... daz_err del_err) columns; give a header line, or say which column is which with "
+                    "columns= (--columns on the command line, e.g. --columns _,az,el,dxel,del: '_' skips a column)",
                 )
             if not columns:
                 mapping = {r: (k, None) for k, r in enumerate(defaults[n_fields])}
@@ -328,7 +306,8 @@ def _mapping(path, header_line, header, n_fields, columns) -> dict[str, tuple[in
             path,
             header_line,
             f"no column for {', '.join(missing)} ({shown}); name the columns with columns={{'azimuth': ..., "
-            "'elevation': ..., 'azimuth_offset': ..., 'elevation_offset': ...}",
+            "'elevation': ..., 'azimuth_offset': ..., 'elevation_offset': ...} (--columns az=N,el=N,dxel=N,del=N "
+            "on the command line, N a column number or header name)",
         )
     if "error" in mapping and ("azimuth_error" in mapping or "elevation_error" in mapping):
         raise OffsetsFormatError(
@@ -347,11 +326,50 @@ def _mapping(path, header_line, header, n_fields, columns) -> dict[str, tuple[in
     return mapping
 
 
+def _is_header(first: list[str], second: list[str] | None) -> bool:
+    """Whether the first record is a header: it has a field that is not a number where
+    the next record has a number (a column of source names is data, not a header); with
+    no next record, when none of its fields is a number."""
+    if second is None:
+        return not any(is_number(t) for t in first)
+    return any(not is_number(a) and is_number(b) for a, b in zip(first, second))
+
+
+def _column_units(path, header_line, header, mapping, units) -> dict[str, str]:
+    """role -> unit of every used column: the header's (``dxel [arcmin]``), else
+    ``units`` (offsets and errors) or degrees (positions)."""
+    out = {}
+    for role, (k, name) in mapping.items():
+        default = "deg" if role in ("azimuth", "elevation") else (units or DEFAULT_UNITS)
+        if name is None:
+            out[role] = default
+            continue
+        _, unit, written = split_unit(name)
+        where = f"column {k + 1} ({name!r})"
+        if unit is None and written is not None and not (units and role in _OFFSET_COLUMNS):
+            raise OffsetsFormatError(
+                path,
+                header_line,
+                f"unknown unit {written!r} in the header; pointax reads {', '.join(UNIT_NAMES)} "
+                + ("(a position's unit)" if role in ("azimuth", "elevation") else "(or give units=, --units, to read the bracket as a note)"),
+                where,
+            )
+        if unit is not None and units and role in _OFFSET_COLUMNS and unit != units:
+            raise OffsetsFormatError(
+                path,
+                header_line,
+                f"the header says {unit} but units={units!r} was given (--units): leave units out to read the header's",
+                where,
+            )
+        out[role] = unit or default
+    return out
+
+
 def parse_offsets(
     text: str,
     path: str = "<string>",
     columns: Mapping[str, str | int] | Sequence[str | None] | None = None,
-    units: str = "arcsec",
+    units: str | None = None,
     azimuth: str = "N-E",
     cross_elevation: bool = True,
     sign: str = "observed-raw",
@@ -359,9 +377,9 @@ def parse_offsets(
     """Parse the text of an offset table (see :func:`read_offsets`)."""
     if azimuth not in AZIMUTH_CONVENTIONS:
         raise ValueError(f"unknown azimuth convention {azimuth!r}; expected one of {sorted(AZIMUTH_CONVENTIONS)}")
-    if units not in OFFSET_UNITS:
-        raise ValueError(f"unknown offset unit {units!r}; expected one of {sorted(OFFSET_UNITS)}")
-    if sign not in ("observed-raw", "raw-observed"):
+    if units is not None and units not in OFFSET_UNITS:
+        raise ValueError(f"unknown offset unit {units!r}; expected one of {list(OFFSET_UNITS)}")
+    if sign not in OFFSET_SIGNS:
         raise ValueError(f"sign must be 'observed-raw' (TPOINT's) or 'raw-observed', got {sign!r}")
     _check_columns_argument(columns)
     records = list(_records(text))
@@ -369,10 +387,10 @@ def parse_offsets(
         raise OffsetsFormatError(path, None, "no data: the file holds only comments or blank lines")
     first_line, first = records[0]
     csv = "," in first
-    tokens = _split(first, csv)
+    second = _split(records[1][1], csv) if len(records) > 1 else None
     header = None
-    if not all(is_number(t) for t in tokens):
-        header = [t.strip().strip("\"'") for t in tokens]
+    if _is_header(_split(first, csv), second):
+        header = [t.strip().strip("\"'") for t in header_fields(first, csv)]
         if csv and any(not h for h in header):
             k = header.index("")
             raise OffsetsFormatError(path, first_line, "empty header name", f"column {k + 1}")
@@ -380,13 +398,15 @@ def parse_offsets(
     if not records:
         raise OffsetsFormatError(path, None, "no data rows" + (" after the header line" if header else ""))
     n_fields = len(header) if header else len(_split(records[0][1], csv))
-    mapping = _mapping(path, first_line if header else records[0][0], header, n_fields, columns)
+    header_line = first_line if header else records[0][0]
+    mapping = _mapping(path, header_line, header, n_fields, columns)
+    unit_of = _column_units(path, header_line, header, mapping, units)
+    scale_of = {role: OFFSET_UNITS[unit] for role, unit in unit_of.items()}
 
     def where(role):
         k, name = mapping[role]
         return f"column {k + 1} ({name})" if name else f"column {k + 1} ({role})"
 
-    scale = OFFSET_UNITS[units]
     rows, lines = [], []
     for lineno, body in records:
         fields = _split(body, csv)
@@ -405,26 +425,28 @@ def parse_offsets(
                 raise OffsetsFormatError(path, lineno, f"{token!r} is not a number", where(role)) from None
             if not math.isfinite(value):
                 raise OffsetsFormatError(path, lineno, f"{token!r} is not finite", where(role))
-            values[role] = value
+            # positions in degrees, offsets and errors in radians from here on
+            values[role] = value * scale_of[role] / (DEG if role in ("azimuth", "elevation") else 1.0)
         check_azimuth(OffsetsFormatError, path, lineno, values["azimuth"], where("azimuth"))
         if not -90.0 <= values["elevation"] <= 90.0:
             raise OffsetsFormatError(path, lineno, f"{values['elevation']:g} deg is outside -90..90 deg", where("elevation"))
         for role in ("azimuth_offset", "elevation_offset"):
-            if abs(values[role]) * scale > MAX_OFFSET_DEG * DEG:
+            if abs(values[role]) > MAX_OFFSET_DEG * DEG:
                 raise OffsetsFormatError(
                     path,
                     lineno,
-                    f"{values[role]:g} {units} is more than {MAX_OFFSET_DEG:g} deg: are the offsets in another unit? "
-                    f"(units={units!r}; choose with units='arcsec', 'arcmin', 'deg' or 'rad')",
+                    f"{values[role] / scale_of[role]:g} {unit_of[role]} is more than {MAX_OFFSET_DEG:g} deg: are the offsets "
+                    f"in another unit? (units={unit_of[role]!r}; choose with units='arcsec', 'arcmin', 'deg' or 'rad', "
+                    "--units on the command line, or name it in the header: 'dxel [arcmin]')",
                     where(role),
                 )
         for role in ("azimuth_error", "elevation_error", "error"):
             if role in values and not values[role] > 0:
                 raise OffsetsFormatError(
-                    path, lineno, f"error {values[role]:g} is not positive (a weight is 1/error^2)", where(role)
+                    path, lineno, f"error {values[role] / scale_of[role]:g} is not positive (a weight is 1/error^2)", where(role)
                 )
         flip = 1.0 if sign == "observed-raw" else -1.0
-        el_obs = values["elevation"] + flip * values["elevation_offset"] * scale / DEG
+        el_obs = values["elevation"] + flip * values["elevation_offset"] / DEG
         check_observed_elevation(OffsetsFormatError, path, lineno, el_obs, f"{where('elevation')} + {where('elevation_offset')}")
         if cross_elevation and math.cos(el_obs * DEG) < 1e-9:
             raise OffsetsFormatError(
@@ -433,17 +455,18 @@ def parse_offsets(
         rows.append([values.get(r, math.nan) for r in OFFSET_ROLES])
         lines.append(lineno)
     data = np.asarray(rows, np.float64)
-    check_not_radians(
-        OffsetsFormatError,
-        path,
-        lines,
-        {where("azimuth"): (data[:, 0], 2 * math.pi), where("elevation"): (data[:, 1], math.pi / 2)},
-    )
+    if unit_of["azimuth"] == "deg" and unit_of["elevation"] == "deg":  # a header saying rad is believed
+        check_not_radians(
+            OffsetsFormatError,
+            path,
+            lines,
+            {where("azimuth"): (data[:, 0], 2 * math.pi), where("elevation"): (data[:, 1], math.pi / 2)},
+        )
     warn_duplicates(path, data[:, :4], lines, "rows")
 
     flip = 1.0 if sign == "observed-raw" else -1.0
     raw = data[:, :2] * DEG
-    d_az, d_el = flip * data[:, 2] * scale, flip * data[:, 3] * scale
+    d_az, d_el = flip * data[:, 2], flip * data[:, 3]
     el_obs = raw[:, 1] + d_el
     cos_e = np.cos(el_obs)
     if cross_elevation:
@@ -455,9 +478,9 @@ def parse_offsets(
     errors = None
     weight = np.ones(len(lines))
     if "error" in mapping:
-        errors = np.column_stack([data[:, 6], data[:, 6]]) * scale
+        errors = np.column_stack([data[:, 6], data[:, 6]])
     elif "azimuth_error" in mapping:
-        errors = data[:, 4:6] * scale
+        errors = data[:, 4:6].copy()
     if errors is not None:
         if not cross_elevation:
             errors = np.column_stack([errors[:, 0] * np.abs(cos_e), errors[:, 1]])
@@ -467,10 +490,11 @@ def parse_offsets(
     observed_az = raw[:, 0] + d_az
     frame = np.asarray(AZIMUTH_CONVENTIONS[azimuth])
     target = azel_to_enu_numpy(observed_az, el_obs) @ frame.T
+    offset_units = {unit_of[r] for r in _OFFSET_COLUMNS if r in unit_of}
     return OffsetsRun(
         path=path,
         columns={role: (k + 1, name) for role, (k, name) in sorted(mapping.items(), key=lambda kv: kv[1][0])},
-        units=units,
+        units=offset_units.pop() if len(offset_units) == 1 else "mixed",
         cross_elevation=cross_elevation,
         sign=sign,
         azimuth=azimuth,
@@ -480,13 +504,14 @@ def parse_offsets(
         weight=weight,
         lines=np.asarray(lines),
         observations=Observations(raw, target, weight, convention=azimuth),
+        column_units={role: unit_of[role] for role in OFFSET_ROLES if role in unit_of},
     )
 
 
 def read_offsets(
     path: str | os.PathLike,
     columns: Mapping[str, str | int] | Sequence[str | None] | None = None,
-    units: str = "arcsec",
+    units: str | None = None,
     azimuth: str = "N-E",
     cross_elevation: bool = True,
     sign: str = "observed-raw",
@@ -500,8 +525,11 @@ def read_offsets(
             default order ``az el daz del [errors]`` without a header), a mapping of
             roles (:data:`OFFSET_ROLES`) to header names or 1-based column numbers,
             or a sequence giving each column's role in order (``None`` skips one).
-        units: unit of the offsets and their errors: ``"arcsec"`` (default),
-            ``"arcmin"``, ``"deg"`` or ``"rad"``. Positions are degrees.
+        units: unit of the offsets and their errors: ``"arcsec"``, ``"arcmin"``,
+            ``"deg"`` or ``"rad"``; None (default): the unit in each column's header
+            name (``dxel [arcmin]``), else arcsec. A header unit that differs from
+            ``units`` is an error. Positions are degrees unless their header names
+            another unit (``az [rad]``).
         azimuth: how the file counts azimuth: 'N-E' (default), 'S-E' or 'S-W'. The
             encoder readings keep it; fit with ``px.AltAz(..., azimuth=azimuth)``.
         cross_elevation: True (default): the azimuth offset is the cross-elevation
