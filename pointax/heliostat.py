@@ -1,4 +1,5 @@
-"""Heliostat calibration from PAINT samples: robust fit, outlier flags, leave-one-out.
+"""Heliostat calibration from PAINT samples: robust fit, outlier flags, leave-one-out
+(optional; skipped, with a note, where the samples are too few for it).
 
     run = px.io.read_paint("../shared/data/paint/AA39")
     cal = px.calibrate_heliostat(run)
@@ -31,7 +32,7 @@ from .rotations import offset_angle
 from .terms.heliostat import HELIOSTAT_DEFAULT, heliostat
 from .validate import leave_one_out
 
-__all__ = ["HeliostatCalibration", "calibrate_heliostat", "heliostat_model"]
+__all__ = ["HeliostatCalibration", "calibrate_heliostat", "heliostat_model", "loo_shortfall"]
 
 MRAD = 1e-3
 
@@ -51,9 +52,12 @@ class HeliostatCalibration:
         result: the (robust) fit of all samples.
         before: ``(n,)`` angle between measured and nominal normal, radians.
         after: ``(n,)`` the same for the fitted model.
-        loo: ``(n,)`` the same for fits that left the sample out.
+        loo: ``(n,)`` the same for fits that left the sample out (NaN where no
+            leave-one-out ran: see ``loo_note``).
         outliers: ``(n,)`` samples the robust fit flagged (not used for its values).
-        loo_converged: ``(n,)`` whether each leave-one-out fit converged.
+        loo_converged: ``(n,)`` whether each leave-one-out fit converged (True where
+            none ran).
+        loo_note: why leave-one-out did not run (``None`` when it ran).
     """
 
     sample_ids: tuple[str, ...]
@@ -63,6 +67,12 @@ class HeliostatCalibration:
     loo: np.ndarray
     outliers: np.ndarray
     loo_converged: np.ndarray
+    loo_note: str | None = None
+
+    @property
+    def loo_ran(self) -> bool:
+        """Whether leave-one-out fits were made."""
+        return self.loo_note is None
 
     def rms(self, which: str, include_outliers: bool = False) -> float:
         """RMS of ``which`` ('before', 'after' or 'loo'), radians, over the unflagged
@@ -99,6 +109,7 @@ class HeliostatCalibration:
             "outliers": [self.sample_ids[i] for i in np.flatnonzero(self.outliers)],
             "converged": fit_dict["converged"],
             "loo_converged": bool(np.all(self.loo_converged)),
+            "loo_skipped": self.loo_note,
             "iterations": fit_dict["iterations"],
             "message": fit_dict["message"],
             "loss": fit_dict["loss"],
@@ -107,31 +118,39 @@ class HeliostatCalibration:
         }
 
     def warnings(self) -> list[str]:
-        """The fit's warnings plus leave-one-out fits that did not converge."""
+        """The fit's warnings plus leave-one-out fits that did not converge, or why
+        leave-one-out was skipped."""
         out = list(self.result.warnings())
+        if self.loo_note is not None:
+            out.append(self.loo_note)
         failed = [self.sample_ids[i] for i in np.flatnonzero(~self.loo_converged)]
         if failed:
             out.append(f"leave-one-out fits without sample(s) {', '.join(failed)} did not converge")
         return out
 
     def report(self) -> str:
-        """The fit report and a per-sample table of errors in mrad."""
+        """The fit report and a per-sample table of errors in mrad (``-`` in the loo
+        column, and a note below, where no leave-one-out ran)."""
+
+        def mrad(x: float) -> str:
+            return f"{x / MRAD:7.2f}" if math.isfinite(x) else f"{'-':>7s}"
+
         width = max(8, *(len(s) for s in self.sample_ids))
         lines = [self.result.report(), "", f"  {'sample':<{width}s}  before    after      loo   (mrad, normal)"]
         for k, sid in enumerate(self.sample_ids):
             flag = "  outlier" if self.outliers[k] else ""
-            lines.append(
-                f"  {sid:<{width}s} {self.before[k] / MRAD:7.2f}  {self.after[k] / MRAD:7.2f}  {self.loo[k] / MRAD:7.2f}{flag}"
-            )
+            lines.append(f"  {sid:<{width}s} {mrad(self.before[k])}  {mrad(self.after[k])}  {mrad(self.loo[k])}{flag}")
         n_kept = int(np.sum(~self.outliers))
         lines.append(
-            f"  {'RMS':<{width}s} {self.rms('before') / MRAD:7.2f}  {self.rms('after') / MRAD:7.2f}  "
-            f"{self.rms('loo') / MRAD:7.2f}   ({n_kept} unflagged samples)"
+            f"  {'RMS':<{width}s} {mrad(self.rms('before'))}  {mrad(self.rms('after'))}  "
+            f"{mrad(self.rms('loo'))}   ({n_kept} unflagged samples)"
         )
         lines.append(
-            f"  {'RMS all':<{width}s} {self.rms('before', True) / MRAD:7.2f}  {self.rms('after', True) / MRAD:7.2f}  "
-            f"{self.rms('loo', True) / MRAD:7.2f}"
+            f"  {'RMS all':<{width}s} {mrad(self.rms('before', True))}  {mrad(self.rms('after', True))}  "
+            f"{mrad(self.rms('loo', True))}"
         )
+        if self.loo_note is not None:
+            lines.append(f"  Note: {self.loo_note}.")
         return "\n".join(lines)
 
 
@@ -153,6 +172,7 @@ def calibrate_heliostat(
     fixed: Iterable[str] = (),
     focal_spot: str = "HeliOS",
     progress: bool = False,
+    loo: bool | None = None,
 ) -> HeliostatCalibration:
     """Calibrate one heliostat on its PAINT samples and cross-check it.
 
@@ -168,24 +188,61 @@ def calibrate_heliostat(
         focal_spot: focal-spot method when ``run`` is a folder.
         progress: a progress bar of the leave-one-out folds on standard error when it
             is a terminal.
+        loo: leave-one-out fits: ``None`` (default) makes them where the samples
+            allow (:func:`loo_shortfall`) and otherwise skips them with a note
+            (``HeliostatCalibration.loo_note``, in the report and the warnings);
+            ``True`` requires them (ValueError where too few samples); ``False``
+            skips them.
 
     Returns:
         :class:`HeliostatCalibration`: before, after and leave-one-out errors of every
         sample, and the fit.
+
+    Raises:
+        ValueError: ``loo=True`` with too few samples (saying how many are needed).
     """
     if not isinstance(run, PaintRun):
         run = read_paint(run, focal_spot=focal_spot)
     model = heliostat_model(run, terms).fix(*fixed)
     obs = run.observations
     options = {"loss": loss, "reject": reject, "solver": solver, "max_steps": max_steps}
+    if loo not in (None, True, False):
+        raise ValueError(f"calibrate_heliostat: loo is {loo!r}, expected None (where possible), True or False")
+    shortfall = loo_shortfall(model, obs)
+    if loo is True and shortfall is not None:
+        raise ValueError(f"{run.directory}: {shortfall}")
     result = fit(model, obs, **options)
-    loo = leave_one_out(model, obs, **options, progress=progress)
+    n = len(run.sample_ids)
+    if loo is False or shortfall is not None:
+        note = "leave-one-out not asked for" if loo is False else f"leave-one-out skipped: {shortfall}"
+        loo_errors, loo_converged = np.full(n, np.nan), np.ones(n, bool)
+    else:
+        note = None
+        folds = leave_one_out(model, obs, **options, progress=progress)
+        loo_errors, loo_converged = np.asarray(folds.errors), np.asarray(folds.converged)
     return HeliostatCalibration(
         sample_ids=tuple(run.sample_ids),
         result=result,
         before=_errors(model, obs),
         after=_errors(result.model, obs),
-        loo=np.asarray(loo.errors),
+        loo=loo_errors,
         outliers=np.asarray(result.outliers),
-        loo_converged=np.asarray(loo.converged),
+        loo_converged=loo_converged,
+        loo_note=note,
+    )
+
+
+def loo_shortfall(model: Model, obs: Observations) -> str | None:
+    """Why a leave-one-out of ``model`` on ``obs`` cannot be made, or None when it can:
+    each fold keeps all samples with positive weight but one, and needs more residuals
+    (two per sample) than free parameters, so that its fit leaves a sigma to estimate
+    (the condition :func:`pointax.validate.leave_one_out` enforces)."""
+    n_used = int(np.sum(np.asarray(obs.weight) > 0)) if obs.weight is not None else len(obs.encoder)
+    n_free = len(model.free_parameters)
+    need = n_free // 2 + 2  # smallest n with 2 (n - 1) > n_free
+    if n_used >= max(2, need):
+        return None
+    return (
+        f"{n_used} sample(s) with positive weight, each fold would keep {max(n_used - 1, 0)} "
+        f"({2 * max(n_used - 1, 0)} residuals) for {n_free} free parameter(s); it needs at least {max(2, need)} samples"
     )

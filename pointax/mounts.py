@@ -427,9 +427,9 @@ class TurntableMount(Mount):
 
 
 class HeliostatMount(Mount):
-    """A tilt-tilt heliostat driven by two linear actuators (the PAINT / DLR Juelich
-    heliostats). The raw readings are actuator increments (motor steps); the mirror
-    normal is the boresight::
+    """A tilt-tilt heliostat driven by two actuators, linear or ideal (the PAINT / DLR Juelich
+    heliostats). The raw readings are actuator increments (motor steps; on an ideal
+    axis, the joint angle in radians); the mirror normal is the boresight::
 
         n = Re(theta1 - pi/2) . Ru(theta2) . (0, -1, 0)       (= Re(theta1) Rn(theta2) (0, 0, 1))
 
@@ -443,7 +443,10 @@ class HeliostatMount(Mount):
         phi(s) = arccos((offset^2 + pivot_radius^2 - s^2) / (2 offset pivot_radius))
         theta = initial_angle + sign (phi(s0) - phi(s))        s0 = initial_stroke
 
-    with ``sign = +1`` for clockwise axis movement, ``-1`` otherwise.
+    with ``sign = +1`` for clockwise axis movement, ``-1`` otherwise. An axis marked
+    ``ideal`` (PAINT's ``"ideal"`` actuator, DLR ARTIST's ``IdealActuators``) has no
+    actuator geometry: its reading *is* the joint angle, ``theta = reading`` (radians),
+    and its linear parameters (NaN allowed) are not used.
 
     Fields are ``(2,)`` arrays, one value per axis (SI units, radians). They are the
     nominal geometry, not fitted parameters; build the mount from a PAINT heliostat
@@ -456,9 +459,10 @@ class HeliostatMount(Mount):
     pivot_radius: Float[Array, "2"]
     initial_angle: Float[Array, "2"]
     sign: Float[Array, "2"]
+    ideal: Float[Array, "2"]
     axis_names: ClassVar[tuple[str, str]] = ("axis1", "axis2")
 
-    def __init__(self, increment, initial_stroke, offset, pivot_radius, initial_angle, clockwise):
+    def __init__(self, increment, initial_stroke, offset, pivot_radius, initial_angle, clockwise, ideal=(0.0, 0.0)):
         def pair(x, name):
             x = jnp.asarray(x, float)
             if x.shape != (2,):
@@ -471,6 +475,7 @@ class HeliostatMount(Mount):
         self.pivot_radius = pair(pivot_radius, "pivot_radius")
         self.initial_angle = pair(initial_angle, "initial_angle")
         self.sign = jnp.where(pair(clockwise, "clockwise") != 0, 1.0, -1.0)
+        self.ideal = jnp.where(pair(ideal, "ideal") != 0, 1.0, 0.0)
 
     @classmethod
     def from_paint(cls, heliostat) -> "HeliostatMount":
@@ -493,6 +498,7 @@ class HeliostatMount(Mount):
             pivot_radius=[a.pivot_radius + a.radius_shift for a in acts],
             initial_angle=field("initial_angle"),
             clockwise=[float(a.clockwise) for a in acts],
+            ideal=[float(getattr(a, "law", "linear") == "ideal") for a in acts],
         )
 
     @property
@@ -503,19 +509,40 @@ class HeliostatMount(Mount):
     def convention(self) -> str:
         return "heliostat"
 
-    def _phi(self, stroke):
-        a, r = self.offset, self.pivot_radius
+    def _linear(self):
+        """``(increment, initial_stroke, offset, pivot_radius, initial_angle)`` with
+        harmless stand-ins on ideal axes (their values may be NaN), so that the
+        linear law, evaluated on every axis and then discarded on ideal ones, stays
+        finite (and so do its derivatives)."""
+        ideal = self.ideal != 0
+        return tuple(
+            jnp.where(ideal, safe, x)
+            for x, safe in (
+                (self.increment, 1.0),
+                (self.initial_stroke, 0.5),
+                (self.offset, 1.0),
+                (self.pivot_radius, 1.0),
+                (self.initial_angle, 0.0),
+            )
+        )
+
+    @staticmethod
+    def _phi(stroke, a, r):
         return jnp.arccos(jnp.clip((a**2 + r**2 - stroke**2) / (2 * a * r), -1.0, 1.0))
 
     def axis_angles(self, reading):
-        stroke = reading / self.increment + self.initial_stroke
-        return self.initial_angle + self.sign * (self._phi(self.initial_stroke) - self._phi(stroke))
+        ideal = self.ideal != 0
+        increment, s0, a, r, angle0 = self._linear()
+        stroke = jnp.where(ideal, s0, reading / increment + s0)
+        linear = angle0 + self.sign * (self._phi(s0, a, r) - self._phi(stroke, a, r))
+        return jnp.where(ideal, reading, linear)
 
     def readings_of(self, angles):
-        a, r = self.offset, self.pivot_radius
-        phi = self._phi(self.initial_stroke) - self.sign * (angles - self.initial_angle)
+        ideal = self.ideal != 0
+        increment, s0, a, r, angle0 = self._linear()
+        phi = self._phi(s0, a, r) - self.sign * (jnp.where(ideal, angle0, angles) - angle0)
         stroke = jnp.sqrt(a**2 + r**2 - 2 * a * r * jnp.cos(phi))
-        return (stroke - self.initial_stroke) * self.increment
+        return jnp.where(ideal, angles, (stroke - s0) * increment)
 
     def axis1(self, angle):
         return rot_x(angle - jnp.pi / 2)

@@ -517,10 +517,16 @@ def test_non_finite(copy, bad):
     assert info.value.line == line_of(text, json.dumps(bad))
 
 
-def test_non_linear_actuator(copy):
+def test_unknown_or_inconsistent_actuator(copy):
+    """'ideal' actuators are read (tests/test_paint_actuators.py), but one whose motor
+    range is in increments (AA39's 0..68745) is no ideal actuator, whose motor position
+    is the joint angle in radians; other types are refused."""
     path = copy / "heliostat-properties.json"
     edit(path, lambda d: d["kinematics_properties"]["actuators"][0].update(type_axis="ideal"))
-    with pytest.raises(PaintFormatError, match=r"actuators\[0\]\.type_axis.*'ideal'.*only linear"):
+    with pytest.raises(PaintFormatError, match=r"actuators\[0\]\.max_increment.*0\.\.68745 is no range of joint angles"):
+        read_heliostat(path)
+    edit(path, lambda d: d["kinematics_properties"]["actuators"][0].update(type_axis="rotary"))
+    with pytest.raises(PaintFormatError, match=r"actuators\[0\]\.type_axis.*'rotary'.*only 'linear' and 'ideal'"):
         read_heliostat(path)
 
 

@@ -38,7 +38,9 @@ strings gpoint's extra terms, upper-case names TPOINT's, mixed freely), printing
 same report or JSON as for TPOINT runs.
 
 ``pointax fit DIR --format paint`` calibrates one PAINT heliostat folder (robust fit,
-outlier flags, leave-one-out; :func:`pointax.calibrate_heliostat`) and prints the report
+outlier flags, leave-one-out; :func:`pointax.calibrate_heliostat`; ``--loo auto|yes|no``:
+by default leave-one-out runs where the samples allow and is otherwise skipped with a
+note, JSON key ``loo_skipped``, and null ``loo`` values) and prints the report
 and a per-sample table, or with ``--json`` the keys ``n_obs``, ``params`` (``name``,
 ``value``, ``sigma``, ``unit``), ``error_mrad`` (``before``, ``after``, ``loo``: one
 value per sample in file order; ``rms`` over the unflagged samples and ``rms_all``),

@@ -32,14 +32,18 @@ SERIES = {
 
 def heliostat_figure(calibration, *, title: str | None = None):
     """Per-sample errors before, after and leave-one-out (mrad) of a
-    :class:`pointax.HeliostatCalibration`, and their RMS: a Figure."""
+    :class:`pointax.HeliostatCalibration`, and their RMS: a Figure. Where no
+    leave-one-out ran (``calibration.loo_note``), its series and bar are left out and
+    the title says so."""
+    skipped = getattr(calibration, "loo_note", None)
+    series = {k: v for k, v in SERIES.items() if not (k == "loo" and skipped is not None)}
     flagged = np.asarray(calibration.outliers, bool)
     n = flagged.shape[0]
     x = np.arange(1, n + 1, dtype=float)
     fig = new_figure(13.0, 5.0)
     grid = fig.add_gridspec(1, 4)
     ax = fig.add_subplot(grid[0, :3])
-    for key, (label, color, marker) in SERIES.items():
+    for key, (label, color, marker) in series.items():
         err = np.asarray(getattr(calibration, key), float) / MRAD
         for kind, mask in (("used", ~flagged), ("outlier", flagged)):
             if not mask.any():
@@ -64,16 +68,17 @@ def heliostat_figure(calibration, *, title: str | None = None):
     ax.set_title("error of each sample: angle between measured and modelled normal", fontsize="medium")
 
     bar_ax = fig.add_subplot(grid[0, 3])
-    for k, (key, (label, color, _)) in enumerate(SERIES.items()):
+    for k, (key, (label, color, _)) in enumerate(series.items()):
         rms = calibration.rms(key) / MRAD
         bars = bar_ax.bar([k], [rms], color=color, label=label)
         for patch in bars.patches:
             patch.set_gid(f"rms-{key}")
         bar_ax.text(k, rms, f"{rms:.3f}", ha="center", va="bottom", fontsize="small")
-    bar_ax.set_xticks(range(len(SERIES)))
-    bar_ax.set_xticklabels(["before", "after", "LOO"])
+    bar_ax.set_xticks(range(len(series)))
+    bar_ax.set_xticklabels(["before", "after", "LOO"][: len(series)])
     bar_ax.set_ylabel("RMS over unflagged samples, mrad")
     bar_ax.set_title("RMS", fontsize="medium")
     n_used = int(np.sum(~flagged))
-    fig.suptitle(title or f"heliostat calibration: {n} samples, {n - n_used} flagged")
+    note = "" if skipped is None else " (no leave-one-out: too few samples)" if "skipped" in skipped else " (no leave-one-out)"
+    fig.suptitle(title or f"heliostat calibration: {n} samples, {n - n_used} flagged{note}")
     return fig

@@ -3,7 +3,8 @@
 A PAINT heliostat folder (e.g. ``AA39/``) holds::
 
     heliostat-properties.json              position, size, initial orientation, two
-                                           linear actuators, joint/concentrator offsets
+                                           actuators (linear, or 'ideal': motor position =
+                                           joint angle), joint/concentrator offsets
     <id>-calibration-properties.json       one calibration sample each: motor positions,
                                            sun azimuth/elevation, focal-spot centroids
                                            (methods "HeliOS" and/or "UTIS"), target name
@@ -55,6 +56,7 @@ from .document import (  # noqa: F401  (the file names: importable from here, as
 )
 from .document import value_lines as _value_lines  # noqa: F401  (tests/test_io_paint.py)
 from .files import (
+    IDEAL_LAW,
     CalibrationSample,
     HeliostatProperties,
     LinearActuator,
@@ -69,6 +71,7 @@ from .run import PaintRun, mirror_centre, read_paint
 
 __all__ = [
     "FOCAL_SPOT_METHODS",
+    "IDEAL_LAW",
     "CalibrationSample",
     "HeliostatProperties",
     "LAYOUT_CURRENT",

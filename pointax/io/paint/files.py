@@ -5,6 +5,7 @@ calibration sample (:func:`read_calibration`) and the tower's target planes
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -27,6 +28,7 @@ from .document import (
 from .geometry import sun_enu_from_paint
 
 __all__ = [
+    "IDEAL_LAW",
     "LinearActuator",
     "HeliostatProperties",
     "read_heliostat",
@@ -75,8 +77,21 @@ class LinearActuator:
     radius_shift: float = 0.0
     """Kept as given (m); 0 in the PAINT files seen."""
     type_axis: str = "linear"
-    """``type_axis`` as written: ``"linear"``; ``"ideal"`` in schema-1 files, whose
-    actuators carry the same linear-actuator parameters and are read with the same law."""
+    """``type_axis`` as written: ``"linear"`` or ``"ideal"``."""
+    law: str = "linear"
+    """How motor positions become joint angles: ``"linear"`` (the law of cosines above)
+    or ``"ideal"`` (:data:`IDEAL_LAW`: the motor position *is* the joint angle in
+    radians, DLR ARTIST's ``IdealActuators``; ``min_increment`` and ``max_increment``
+    are then angles too, and the linear parameters, NaN where the file leaves them out,
+    are not used). ``"ideal"`` for an actuator typed ``"ideal"`` in the current layout;
+    schema-1 files type every actuator ``"ideal"`` but carry linear-actuator parameters
+    and motor positions in increments, which the linear law fits (AC43), so theirs are
+    read with the linear law."""
+
+    @property
+    def ideal(self) -> bool:
+        """Whether the motor position is the joint angle (``law == "ideal"``)."""
+        return self.law == "ideal"
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -152,14 +167,27 @@ _ACTUATOR_NUMBERS = (
 _POSITIVE = {"increment", "offset", "pivot_radius"}
 
 
+IDEAL_LAW = "joint angle = motor position (rad)"
+"""An ideal actuator's law, as DLR's ARTIST has it (``IdealActuators.motor_positions_to_angles``
+returns the motor positions): no stroke, no lever, no zero offset, no turning sign."""
+
+_IDEAL_REQUIRED = ("min_increment", "max_increment")
+"""The numbers an ideal actuator needs (its motor range, in radians); the others are
+read when present."""
+
+
 def _actuator(doc: JsonDocument, value: Any, field: str, layout: str = LAYOUT_CURRENT) -> LinearActuator:
     a = doc.obj(value, field)
     kind = doc.string(a, "type_axis", field)
-    allowed = ("linear", "ideal") if layout == LAYOUT_SCHEMA1 else ("linear",)
-    if kind not in allowed:
-        also = " (and, in the schema-1 layout, 'ideal')" if layout == LAYOUT_SCHEMA1 else ""
-        doc.fail(doc.join(field, "type_axis"), f"is {kind!r}: only linear actuators are supported{also}")
-    v = {k: doc.number(a, k, field, positive=k in _POSITIVE) for k in _ACTUATOR_NUMBERS}
+    if kind not in ("linear", "ideal"):
+        doc.fail(doc.join(field, "type_axis"), f"is {kind!r}: only 'linear' and 'ideal' actuators are supported")
+    law = "ideal" if kind == "ideal" and layout == LAYOUT_CURRENT else "linear"
+    v = {
+        k: doc.number(a, k, field, positive=k in _POSITIVE)
+        if law == "linear" or k in _IDEAL_REQUIRED or k in a
+        else math.nan
+        for k in _ACTUATOR_NUMBERS
+    }
     cw, cw_field = doc.get(a, "clockwise_axis_movement", field)
     if isinstance(cw, bool):
         clockwise = cw
@@ -169,13 +197,20 @@ def _actuator(doc: JsonDocument, value: Any, field: str, layout: str = LAYOUT_CU
         doc.fail(cw_field, f"is {describe_value(cw)}, expected 0, 1, true or false")
     if v["min_increment"] > v["max_increment"]:
         doc.fail(doc.join(field, "max_increment"), f"{v['max_increment']} is below min_increment {v['min_increment']}")
+    if law == "ideal" and not (-2 * math.pi <= v["min_increment"] and v["max_increment"] <= 2 * math.pi):
+        doc.fail(
+            doc.join(field, "max_increment" if v["max_increment"] > 2 * math.pi else "min_increment"),
+            f"range {v['min_increment']:g}..{v['max_increment']:g} is no range of joint angles: an 'ideal' actuator's "
+            f"motor position is its joint angle in radians ({IDEAL_LAW}); a range in increments belongs to a "
+            "'linear' actuator",
+        )
     if v["min_movement_angle"] > v["max_movement_angle"]:
         doc.fail(
             doc.join(field, "max_movement_angle"),
             f"{v['max_movement_angle']} is below min_movement_angle {v['min_movement_angle']}",
         )
     shifts = {k: doc.number(a, k, field) if k in a else 0.0 for k in ("offset_shift", "radius_shift")}
-    return LinearActuator(clockwise=clockwise, **v, **shifts, type_axis=kind)
+    return LinearActuator(clockwise=clockwise, **v, **shifts, type_axis=kind, law=law)
 
 
 def _re_half_pi(v: np.ndarray) -> np.ndarray:
@@ -200,9 +235,14 @@ def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
       are read with the linear law, and its translations are kept as written (in the
       chain's frames, as DLR's ARTIST applies them).
 
+    An actuator typed ``"ideal"`` in the current layout is DLR ARTIST's ideal actuator:
+    its motor position is the joint angle in radians (``LinearActuator.law``); it needs
+    only ``clockwise_axis_movement`` and its motor range ``min_increment`` ..
+    ``max_increment`` (radians, within +-2 pi), the other numbers are read if present.
+
     Checks types and finiteness of every field used, that there are exactly two
-    actuators, both ``"linear"`` (or ``"ideal"`` in schema 1), with positive
-    ``increment``, ``offset`` and ``pivot_radius``. Facet properties are not read.
+    actuators, each ``"linear"`` (positive ``increment``, ``offset`` and
+    ``pivot_radius``) or ``"ideal"``. Facet properties are not read.
 
     Raises:
         FileNotFoundError: no such file.

@@ -222,7 +222,8 @@ def _check_motor_range(sample, heliostat: HeliostatProperties) -> None:
             JsonDocument(sample.path).fail(
                 f"motor_position.axis_{k}_motor_position",
                 f"{motor:g} is outside the range of actuator {k} ({actuator.min_increment:g}..{actuator.max_increment:g} "
-                f"increments in {Path(heliostat.path).name}); remove the sample or correct the file",
+                f"{'rad, an ideal actuator' if actuator.ideal else 'increments'} in {Path(heliostat.path).name}); "
+                "remove the sample or correct the file",
             )
 
 
