@@ -846,16 +846,19 @@ def test_writer_refuses_what_gpoint_cannot_hold(tmp_path):
 @pytest.mark.parametrize("name", GPOINT_GEM_TERMS)
 def test_gem_terms_match_tpoint_equatorial_terms(name):
     """gpoint coef c == TPOINT -c (pointax.terms.equatorial, TPOINT's linear form): exactly
-    for the zero points, to first order otherwise; on both sides of the pier."""
+    for the zero points, to first order otherwise; on both sides of the pier. DAF is the
+    exception: gpoint's daf has TPOINT's sign (Wallace's tptPterms: dh = -DAF (cos phi
+    cos h + sin phi tan dec); gpoint: -daf (sin phi tan dec + cos phi cos h))."""
     coef = 1.0 * ARCSEC
+    sign = 1.0 if name == "daf" else -1.0
     ours = px.Equatorial(gpoint_model_terms(name, "gem", latitude=LAT, values={name: coef}), latitude=LAT)
     theirs = px.Equatorial(px.terms.tpoint(name.upper(), mount="equatorial", latitude=LAT,
-                                           values={name.upper(): -coef}), latitude=LAT)
+                                           values={name.upper(): sign * coef}), latitude=LAT)
     d_g, d_t, d_0 = ours(GEM_RAW), theirs(GEM_RAW), px.Equatorial([], latitude=LAT)(GEM_RAW)
     assert np.max(np.asarray(px.rotations.angle_between(d_g, d_0))) > 0.3 * coef
     tolerance = 1e-15 if name in ("ih", "id") else 1e-9
     assert np.all(np.asarray(px.rotations.angle_between(d_g, d_t)) < tolerance)
     # and with the same sign they would disagree by about twice the offset
     same = px.Equatorial(px.terms.tpoint(name.upper(), mount="equatorial", latitude=LAT,
-                                         values={name.upper(): coef}), latitude=LAT)(GEM_RAW)
+                                         values={name.upper(): -sign * coef}), latitude=LAT)(GEM_RAW)
     assert np.max(np.asarray(px.rotations.angle_between(d_g, same))) > 0.5 * coef

@@ -80,7 +80,7 @@ def test_names_parse(name, result, factors):
 @pytest.mark.parametrize(
     "name, message",
     [
-        ("HXCA2", r"character 2 is 'X', expected A \(azimuth\), E \(elevation\) or S"),
+        ("HBCA2", r"character 2 is 'B', expected A \(azimuth\), E \(elevation\) or S"),
         ("H", r"character 2 is the end of the name"),
         ("HA", r"character 3 is the end of the name, expected S \(sine\) or C \(cosine\)"),
         ("HAXA", r"character 3 is 'X', expected S \(sine\) or C"),
@@ -299,9 +299,9 @@ def test_model_file_with_harmonic_terms_reads_builds_and_writes_back(tmp_path):
 
 def test_model_file_with_an_unknown_term_names_file_and_line(tmp_path):
     path = tmp_path / "bad.mod"
-    path.write_text(format_model([ModelTerm("IA", 1.0, 0.1), ModelTerm("HXCA2", 2.0, 0.1)], caption="bad"))
+    path.write_text(format_model([ModelTerm("IA", 1.0, 0.1), ModelTerm("HBCA2", 2.0, 0.1)], caption="bad"))
     mf = read_model(path)
-    with pytest.raises(TpointFormatError, match=rf"{path}:3: term record HXCA2: harmonic term 'HXCA2': character 2"):
+    with pytest.raises(TpointFormatError, match=rf"{path}:3: term record HBCA2: harmonic term 'HBCA2': character 2"):
         mf.model()
     with pytest.raises(ValueError, match="unknown term form"):
         mf.model(form="curvy")

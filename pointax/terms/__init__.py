@@ -4,8 +4,14 @@
 * :mod:`pointax.terms.rigorous`: the same terms as exact rotations.
 * :mod:`pointax.terms.equatorial`: TPOINT's equatorial terms (IH ID CH NP MA ME TF FO
   DAF HCES HCEC DCES DCEC), linear and rigorous; ``tpoint(..., mount="equatorial")``.
+* :mod:`pointax.terms.tpoint_special`, :mod:`pointax.terms.equatorial_special`: more
+  of TPOINT's named terms (NRX NRY CRX CRY FLOP TFP ...; TX DAB DNP and the AAT's).
 * :mod:`pointax.terms.harmonic`: TPOINT's harmonic terms, generated from their names
-  (``HACA2``, ``HESE5``, ``HESACE``, ``HSCA5CE8``), in both forms.
+  (``HACA2``, ``HESE5``, ``HESACE``, ``HSCA5CE8``, ``HZSZ2``), in both forms.
+* :mod:`pointax.terms.polynomial`: TPOINT's polynomial terms (``PAA1``, ``PEE2``,
+  ``PAA1E2``), generated from their names.
+* :mod:`pointax.terms.repertoire`: which TPOINT names are built, and why the others
+  (auxiliary-reading terms, TX10, ...) raise :class:`NotYetInPointax`.
 * :mod:`pointax.terms.gpoint`: RTS2 gpoint's alt-az terms (ia ie tn te npae npoa tf),
   its German-equatorial terms (ih id ch np ma me tf fo daf)
   and its "extra" terms (``az:sincos:az;el:2;2``).
@@ -65,7 +71,24 @@ _NAMES = (
     "ECES",
     "PAA1",
     "PEE1",
+    "NRX",
+    "NRY",
+    "CRX",
+    "CRY",
+    "FLOP",
+    "TFP",
+    "ANL",
+    "AWL",
+    "CAL",
+    "NPAEL",
+    "TXL",
     "LINEAR_TERMS",
+    "NotYetInPointax",
+    "Polynomial",
+    "RigorousPolynomial",
+    "polynomial_term",
+    "parse_polynomial",
+    "is_polynomial_name",
     "turntable",
     "sun_vector",
     "heliostat",
@@ -91,7 +114,10 @@ _NAMES = (
     "gpoint_library",
 )
 
-_SUBMODULES = ("base", "equatorial", "gpoint", "harmonic", "library")
+_SUBMODULES = (
+    "base", "equatorial", "equatorial_special", "gpoint", "harmonic", "library", "polynomial", "repertoire",
+    "tpoint_special",
+)  # fmt: skip
 
 # Every public name loads from :mod:`.library`, which imports the term modules: importing
 # :mod:`pointax.terms.base` (the term interface, as the core does) loads no particular term.

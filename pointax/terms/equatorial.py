@@ -20,7 +20,7 @@ MA      -cos h tan dec                              +sin h
 ME      +sin h tan dec                              +cos h
 TF      +cos phi sin h sec dec                      +(cos phi cos h sin dec - sin phi cos dec)
 FO      0                                           +cos h
-DAF     +(cos phi cos h + sin phi tan dec)          0
+DAF     -(cos phi cos h + sin phi tan dec)          0
 HCES    +sin h                                      0
 HCEC    +cos h                                      0
 DCES    0                                           +sin dec
@@ -59,14 +59,18 @@ DCES, DCEC: centring (eccentricity) errors of the hour-angle and declination enc
   axes' upward ends, as in the two tables.
 * FO and DAF (**not verified against TPOINT output**: no reference fit holds them,
   and the cgx run's nine-term Sky RMS 182.0" with TF FO DAF does not depend on their
-  signs): RTS2 gpoint's GEM model (``python/rts2/gpoint.py``, ``model_ha`` and
-  ``model_dec``, observed minus raw) writes every one of IH ID CH NP MA ME TF with the
-  opposite sign to the table (its ``ih .. tf`` are minus TPOINT's, checked through the
-  data above) and ``-daf (sin phi tan dec + cos phi cos h)``, ``-fo cos h``: with the
-  same relation, TPOINT's DAF is ``dh = +DAF (cos phi cos h + sin phi tan dec)`` and
-  FO ``ddec = +FO cos h``. gaker/celestial (``celestial-pointing/src/terms/
-  equatorial.rs``, a design matrix of opposite sign) agrees for DAF and for the seven
-  verified terms, and has the opposite FO.
+  signs): P. T. Wallace's TPOINT term routine ``tptPterms`` (public C source, revision
+  of 14 November 2006, which states IH ID CH NP MA ME TF as in the table) gives
+  ``ddec = +FO cos h`` and, for DAF, an east-west shift ``-DAF cos z``, i.e.
+  ``dh = -DAF (cos phi cos h + sin phi tan dec)``. RTS2's TPOINT-model code
+  (``src/teld/model/modelterm.cpp``, whose TF, HCES ... have TPOINT's signs) subtracts
+  the same DAF function. (Until this was found pointax followed RTS2 gpoint's GEM model
+  and gaker/celestial, which give DAF the opposite sign: their DAF is minus TPOINT's.)
+  gpoint (``python/rts2/gpoint.py``, ``model_ha`` and ``model_dec``, observed minus
+  raw) writes every one of IH ID CH NP MA ME TF with the opposite sign to the table (its
+  ``ih .. tf`` are minus TPOINT's, checked through the data above), ``-fo cos h`` and
+  ``-daf (sin phi tan dec + cos phi cos h)``: so gpoint's ``fo = -FO`` but its
+  ``daf = +DAF``.
 * HCES, HCEC, DCES, DCEC (**not verified**): TPOINT's identities HCES = HHSH1,
   HCEC = HHCH1, DCES = HDSD1, DCEC = HDCD1 with the equatorial harmonic sign rule of
   :mod:`pointax.terms.harmonic` (H and D terms follow IH and ID, ``+coef f``), which
@@ -97,8 +101,8 @@ DAF without it raises ``ValueError``.
 
 **Other tools.** gpoint (RTS2 ``python/rts2/gpoint.py``) has a GEM model with the same
 functions: ``ih = -IH``, ``id = -ID``, ``ch = -CH``, ``np = -NP``, ``ma = -MA``,
-``me = -ME``, ``tf = -TF`` (these seven follow from the data above), ``daf = -DAF``,
-``fo = -FO`` (by the same relation, not checked); gpoint flips the star's place onto
+``me = -ME``, ``tf = -TF`` (these seven follow from the data above), ``fo = -FO`` and
+``daf = +DAF`` (from Wallace's statement of FO and DAF, not checked against data); gpoint flips the star's place onto
 the mechanical branch as pointax does. It has no centring terms. katpoint (MeerKAT)
 is alt-az only: it has no equatorial terms.
 
@@ -112,14 +116,13 @@ no rigorous form here: their linear form is used in both.
 
 from __future__ import annotations
 
-import math
-
-import equinox as eqx
 import jax.numpy as jnp
 
 from ..rotations import rot_x, rot_y, rot_z
 from .base import Term, angle_pair, param
-from .tpoint import LinearTerm
+from .equatorial_special import SPECIAL_EQUATORIAL_TERMS, SPECIAL_NEEDS_LATITUDE
+from .linear import LatitudeTerm as _LatitudeTerm
+from .linear import LinearTerm
 
 __all__ = [
     "IH",
@@ -192,30 +195,6 @@ class ME(LinearTerm):
         return p.sin_az * p.tan_el, p.cos_az
 
 
-class _LatitudeTerm(LinearTerm):
-    """A linear term whose basis needs the site's latitude (static, radians)."""
-
-    latitude: float | None = eqx.field(static=True, default=None)
-
-    def __check_init__(self):
-        if self.latitude is None:
-            raise ValueError(
-                f"equatorial term {type(self).__name__} needs the site's latitude: build it with "
-                f"latitude=<radians> (e.g. pointax.terms.tpoint({type(self).__name__!r}, mount='equatorial', "
-                "latitude=pointax.deg(33.36)))"
-            )
-        lat = float(self.latitude)
-        if not (math.isfinite(lat) and abs(lat) <= math.pi / 2 + 1e-12):
-            raise ValueError(
-                f"equatorial term {type(self).__name__}: latitude {lat!r} rad is not within [-pi/2, pi/2] "
-                "(give it in radians)"
-            )
-
-    @property
-    def _trig_lat(self):
-        return math.sin(self.latitude), math.cos(self.latitude)
-
-
 class TF(_LatitudeTerm):
     """Tube flexure, Hooke's law (the tube droops by ``TF sin z``).
     ``dh = +TF cos phi sin h sec dec``, ``ddec = +TF (cos phi cos h sin dec - sin phi
@@ -235,13 +214,14 @@ class FO(LinearTerm):
 
 
 class DAF(_LatitudeTerm):
-    """Declination-axis flexure. ``dh = +DAF (cos phi cos h + sin phi tan dec)``.
-    Needs ``latitude``. Sign from gpoint's and celestial-pointing's forms, not
-    verified against TPOINT output."""
+    """Declination-axis flop (a fixed downward flop of a cantilevered declination axis,
+    English cross-axis and German mounts): an east-west shift ``-DAF cos z``,
+    ``dh = -DAF (cos phi cos h + sin phi tan dec)`` (Wallace's ``tptPterms``). Needs
+    ``latitude``. Not verified against TPOINT output."""
 
     def basis(self, p):
         s, c = self._trig_lat
-        return c * p.cos_az + s * p.tan_el, 0.0
+        return -(c * p.cos_az + s * p.tan_el), 0.0
 
 
 class HCES(LinearTerm):
@@ -428,7 +408,13 @@ EQUATORIAL_RIGOROUS_TERMS: dict[str, type[Term]] = {
     "DCES": _RigorousDCES,
     "DCEC": _RigorousDCEC,
 }
-"""TPOINT equatorial name -> rigorous-form term class (TF, FO, DAF: the linear form)."""
+"""TPOINT equatorial name -> rigorous-form term class (TF, FO, DAF and the terms of
+:mod:`pointax.terms.equatorial_special`: the linear form)."""
+
+
+EQUATORIAL_LINEAR_TERMS.update(SPECIAL_EQUATORIAL_TERMS)
+EQUATORIAL_RIGOROUS_TERMS.update(SPECIAL_EQUATORIAL_TERMS)
+NEEDS_LATITUDE = NEEDS_LATITUDE | SPECIAL_NEEDS_LATITUDE
 
 EQUATORIAL_FORMS = {"linear": EQUATORIAL_LINEAR_TERMS, "rigorous": EQUATORIAL_RIGOROUS_TERMS}
 """Term form name -> {TPOINT equatorial name: term class}."""

@@ -33,14 +33,15 @@ DAF not checked against TPOINT output)::
     NP: dH = +NP tan d        MA: dH = -MA cos H tan d,  dd = +MA sin H
     ME: dH = +ME sin H tan d,  dd = +ME cos H
     TF: dH = +TF cos(phi) sin H sec d,  dd = +TF (cos(phi) cos H sin d - sin(phi) cos d)
-    FO: dd = +FO cos H        DAF: dH = +DAF (cos(phi) cos H + sin(phi) tan d)
+    FO: dd = +FO cos H        DAF: dH = -DAF (cos(phi) cos H + sin(phi) tan d)
 
-Every one of gpoint's nine is the same function with the opposite sign, so TPOINT's
+Eight of gpoint's nine are the same function with the opposite sign, so TPOINT's
 coefficient is minus gpoint's (identical for ih/id, equal to first order for the rest:
-gpoint evaluates at the raw position, TPOINT at the sky one)::
+gpoint evaluates at the raw position, TPOINT at the sky one); DAF has gpoint's sign
+(P. T. Wallace's TPOINT routine ``tptPterms`` states ``dH = -DAF (...)``)::
 
     IH = -ih   ID = -id   CH = -ch   NP = -np   MA = -ma   ME = -me
-    TF = -tf   FO = -fo   DAF = -daf
+    TF = -tf   FO = -fo   DAF = +daf
 
 ``test_gem_terms_match_tpoint_equatorial_terms`` in ``tests/test_gpoint.py`` checks each
 relation against :mod:`pointax.terms.equatorial`. gpoint's ``tf`` is ``+tf cos E`` in
@@ -195,7 +196,7 @@ class GpointFO(GpointGemTerm):
 
 class GpointDAF(GpointGemTerm):
     """gpoint ``daf``, declination axis flexure: ``dH = -daf (sin(phi) tan d + cos(phi)
-    cos H)``, ``phi`` the latitude. TPOINT: DAF = -daf."""
+    cos H)``, ``phi`` the latitude. TPOINT: DAF = +daf."""
 
     gpoint_name: ClassVar[str] = "daf"
     uses_latitude: ClassVar[bool] = True

@@ -16,6 +16,8 @@ from .harmonic import (
     is_harmonic_name,
     parse_harmonic,
 )
+from .polynomial import Polynomial, RigorousPolynomial, is_polynomial_name, parse_polynomial, polynomial_term
+from .repertoire import not_yet_error, not_yet_reason
 from .tpoint import (
     ACEC,
     ACES,
@@ -28,12 +30,14 @@ from .tpoint import (
     IE,
     LINEAR_TERMS,
     NPAE,
+    NotYetInPointax,
     PAA1,
     PEE1,
     TF,
     TX,
     LinearTerm,
 )
+from .tpoint_special import ANL, AWL, CAL, CRX, CRY, FLOP, NPAEL, NRX, NRY, TFP, TXL
 
 harmonic_library = importlib.import_module(".harmonic", __package__)
 
@@ -126,10 +130,12 @@ def tpoint(
     """TPOINT terms by name, e.g. ``tpoint("IA IE NPAE CA AN AW TF TX HACA2 HESE5")`` or
     ``tpoint("IH ID CH NP MA ME TF HHSH", mount="equatorial", latitude=px.deg(33.4))``.
 
-    Names starting with ``H`` that are not named terms (HCES, HCEC, ... are) are TPOINT's
-    harmonic terms, generated from the name (:mod:`pointax.terms.harmonic`); the others
-    are the named terms of :mod:`pointax.terms.tpoint` (alt-az) or
-    :mod:`pointax.terms.equatorial`. Names are case-insensitive.
+    Named terms are those of :mod:`pointax.terms.tpoint` and
+    :mod:`pointax.terms.tpoint_special` (alt-az) or :mod:`pointax.terms.equatorial` and
+    :mod:`pointax.terms.equatorial_special`; other names starting with ``H`` are TPOINT's
+    harmonic terms (:mod:`pointax.terms.harmonic`), with ``P`` its polynomial terms
+    (:mod:`pointax.terms.polynomial`), generated from the name. Names are
+    case-insensitive. :mod:`pointax.terms.repertoire` lists what is built and what not.
 
     Args:
         spec: names separated by spaces or commas, or a sequence of names (default:
@@ -146,9 +152,12 @@ def tpoint(
             given to ``pointax.Equatorial``. Not used by alt-az terms.
 
     Raises:
+        NotYetInPointax: (a ``ValueError``) for a name that is TPOINT's but that pointax
+            cannot build yet (auxiliary-reading terms, TX10, the other mount's terms and
+            coordinates, the parallactic angle); the message says why.
         ValueError: for an unknown form, mount or term name (the message lists the
-            known ones, or says which character of a harmonic name is wrong), or an
-            equatorial term that needs ``latitude`` when none is given.
+            known ones, or says which character of a harmonic or polynomial name is
+            wrong), or an equatorial term that needs ``latitude`` when none is given.
     """
     if mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {list(MOUNTS)}")
@@ -175,17 +184,23 @@ def tpoint(
                     )
                 kwargs["latitude"] = float(latitude)
             out.append(library[name](coef=values.pop(name, 0.0), **kwargs))
+        elif (reason := not_yet_reason(name, mount)) is not None:
+            raise not_yet_error(name, reason)
         elif is_harmonic_name(name):
             out.append(harmonic_term(name, coef=values.pop(name, 0.0), form=form, mount=mount))
+        elif is_polynomial_name(name):
+            out.append(polynomial_term(name, coef=values.pop(name, 0.0), form=form, mount=mount))
         elif equatorial_mount:
             raise ValueError(
                 f"unknown TPOINT equatorial term {name!r}; known equatorial terms: {' '.join(library)}, "
-                "and harmonic terms named H{H|D|X}{S|C}{H|D}[m][{S|C}{H|D}[m]] (e.g. HHSH, HDCD2, HXSH2CD)"
+                "harmonic terms named H{H|D|X}{S|C}{H|D}[m][{S|C}{H|D}[m]] (e.g. HHSH, HDCD2, HXSH2CD) "
+                "and polynomial terms named P{H|D|X}{H|D}[n][{H|D}[n]] (e.g. PHH1, PDD2)"
             )
         else:
             raise ValueError(
                 f"unknown TPOINT term {name!r}; known alt-az terms: {' '.join(library)}, "
-                "and harmonic terms named H{A|E|S}{S|C}{A|E}[m][{S|C}{A|E}[m]] (e.g. HACA2, HSCA5CE8)"
+                "harmonic terms named H{A|E|S|Z}{S|C}{A|E|Z}[m][{S|C}{A|E|Z}[m]] (e.g. HACA2, HSCA5CE8) "
+                "and polynomial terms named P{A|E|S|Z}{A|E|Z}[n][{A|E|Z}[n]] (e.g. PAA1, PEE2, PAA1E2)"
             )
     if values:
         raise ValueError(f"values given for terms not in the list: {sorted(values)}")

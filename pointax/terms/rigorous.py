@@ -9,6 +9,9 @@ Geometry (mount frame, see :class:`pointax.AltAzMount`)::
 
     d = [AN, AW tilts] . Rz(-A) . [NPAE] . Rx(E) . [CA] . (0, 1, 0)
 
+NRX, NRY, CRX, CRY, FLOP, TFP, ANL, AWL, CAL, NPAEL and TXL
+(:mod:`pointax.terms.tpoint_special`) keep their linear form.
+
 Encoder terms (IA, IE, ACEC, ACES, ECEC, ECES, PAA1, PEE1) correct the encoder angles
 and are evaluated at the raw encoder reading, which is where an encoder error lives.
 Harmonic terms in this form (:class:`pointax.terms.harmonic.RigorousHarmonic`) follow the
@@ -22,7 +25,9 @@ import jax.numpy as jnp
 
 from ..rotations import rot_x, rot_y, rot_z
 from .base import Term, angle_pair, param
+from .linear import tpoint_azimuth
 from .tpoint import TF, TX
+from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
 __all__ = [
     "IA",
@@ -98,10 +103,11 @@ class ECES(_EncoderTerm):
 
 
 class PAA1(_EncoderTerm):
-    """Azimuth encoder scale error: azimuth - PAA1 * A_encoder (radians)."""
+    """Azimuth encoder scale error: azimuth - PAA1 * A_T(encoder), ``A_T = 180 deg - A``
+    in (-180, 180] deg, radians (TPOINT's polynomial variable, as the linear PAA1)."""
 
     def encoder_basis(self, az, el):
-        return -az, 0.0
+        return -tpoint_azimuth(jnp.sin(az), jnp.cos(az)), 0.0
 
 
 class PEE1(_EncoderTerm):
@@ -168,5 +174,7 @@ RIGOROUS_TERMS: dict[str, type[Term]] = {
     "ECES": ECES,
     "PAA1": PAA1,
     "PEE1": PEE1,
+    **SPECIAL_ALTAZ_TERMS,
 }
-"""TPOINT name -> rigorous-form term class."""
+"""TPOINT name -> rigorous-form term class (:mod:`pointax.terms.tpoint_special`'s terms:
+their linear form)."""

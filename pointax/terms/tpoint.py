@@ -21,9 +21,16 @@ ACEC     +cos A                     0                      P13 = -ACEC
 ACES     -sin A                     0                      P14 = +ACES
 ECEC     0                          +cos E                 P8 = -ECEC (ECEC = -TF)
 ECES     0                          +sin E                 P11 = -ECES
-PAA1     -A (radians)               0                      P12 = +PAA1 (unitless)
+PAA1     -A_T (radians, below)      0                      P12 = -PAA1 (+ a zero point)
 PEE1     0                          +E (radians)           P9 = -PEE1 (unitless)
 =======  =========================  =====================  ==========================
+
+TPOINT's internal azimuth is ``A_T = 180 deg - A`` (South = 0, East = 90 deg for a file
+that counts azimuth North through East), reduced to (-180, +180] deg; TPOINT's azimuth
+corrections are changes of ``A_T``, so ``dA = -dA_T``. Wallace's term code
+(``tptPterms``/``tptPtermg``/``tptPtpre``, P. T. Wallace's TPOINT routines, public C
+source under his copyright) states every term in ``A_T``; the table above and
+:mod:`pointax.terms.tpoint_special` are those statements translated.
 
 katpoint's relations are derived from its formulas (``katpoint.PointingModel``, whose
 offsets are raw minus observed on North-through-East azimuth), not from its docstrings,
@@ -34,9 +41,14 @@ the MMT run to 0.003" (``tests/test_conformance.py``). The centring terms follow
 TPOINT's identities ACEC = HACA1, ACES = HASA1, ECEC = HECE1, ECES = HESE1 and the
 harmonic-term conventions checked against a published TPOINT fit (the azimuth inside
 them is 180 deg - A, the sign is -coef for A and +coef for E terms), which give the
-signs above. The polynomial terms PAA1 and PEE1 follow TPOINT's sign rule for A and E
-terms; neither they nor the centring terms have yet been checked against TPOINT
-output.
+signs above; Wallace's term code states the same four. PAA1 and PEE1 are TPOINT's
+generic polynomial terms ``P{R}{C}{n}`` (:mod:`pointax.terms.polynomial`): in Wallace's
+code the variable ``A`` of a polynomial is ``A_T`` (above), so ``dA = -PAA1 * A_T``
+(an earlier pointax used ``-PAA1 * A``, the opposite slope). Neither they nor
+the centring terms have yet been checked against TPOINT output.
+
+More of TPOINT's named alt-az terms (NRX, NRY, CRX, CRY, FLOP, TFP and the approximate
+ANL, AWL, CAL, NPAEL, TXL) are in :mod:`pointax.terms.tpoint_special`.
 
 All coefficients are in radians internally and shown in arcseconds. The sign rule is
 TPOINT's: a positive azimuth coefficient makes the mount point at *smaller* azimuth
@@ -51,11 +63,12 @@ TPOINT's harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their 
 
 from __future__ import annotations
 
-from typing import ClassVar
-
-from .base import SkyPoint, Term, angle_pair, param
+from .linear import LinearTerm, NotYetInPointax, tpoint_azimuth
+from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
 __all__ = [
+    "NotYetInPointax",
+    "tpoint_azimuth",
     "LinearTerm",
     "IA",
     "IE",
@@ -73,26 +86,6 @@ __all__ = [
     "PEE1",
     "LINEAR_TERMS",
 ]
-
-
-class LinearTerm(Term):
-    """A TPOINT-style term: ``coef * basis(A, E)`` added to (A, E) at the sky position."""
-
-    coef: float = param(0.0)
-    linear_sky_offset: ClassVar[bool] = True
-    linear_by_construction: ClassVar[bool] = True
-    neutral_at_zero: ClassVar[bool | None] = True
-
-    def basis(self, p: SkyPoint) -> tuple:
-        """(dA, dE) per radian of coefficient at ``p`` (its angles and their sines and
-        cosines): observed minus raw, TPOINT's sign."""
-        raise NotImplementedError
-
-    def sky_offset_at(self, point: SkyPoint):
-        return self.coef * angle_pair(*self.basis(point))
-
-    def sky_offset(self, angles):
-        return self.sky_offset_at(SkyPoint.at(angles))
 
 
 class IA(LinearTerm):
@@ -210,17 +203,21 @@ class ECES(LinearTerm):
 
 
 class PAA1(LinearTerm):
-    """Azimuth encoder scale error: first-order polynomial in azimuth.
-    ``dA = -PAA1 * A`` with A in radians (on the encoder's branch of azimuth).
-    katpoint: P12 = +PAA1 (dimensionless there)."""
+    """Azimuth encoder scale error: TPOINT's first-order polynomial in azimuth,
+    ``dA_T = +PAA1 * A_T`` (Wallace's ``tptPtermg``, format ``PRCI``), i.e.
+    ``dA = -PAA1 * A_T`` with ``A_T = 180 deg - A`` reduced to (-180, 180] deg, radians
+    (:func:`tpoint_azimuth`). On one branch ``A_T = pi - A``: ``dA = PAA1 * A - pi PAA1``,
+    so katpoint's P12 = -PAA1 together with an azimuth zero point. Not checked against
+    TPOINT output."""
 
     def basis(self, p):
-        return -p.az, 0.0
+        return -tpoint_azimuth(p.sin_az, p.cos_az), 0.0
 
 
 class PEE1(LinearTerm):
-    """Elevation encoder scale error: first-order polynomial in elevation.
-    ``dE = +PEE1 * E`` with E in radians. katpoint: P9 = -PEE1 (dimensionless there)."""
+    """Elevation encoder scale error: TPOINT's first-order polynomial in elevation
+    (Wallace's ``tptPtermg``): ``dE = +PEE1 * E`` with E in radians. katpoint: P9 = -PEE1
+    (dimensionless there). Not checked against TPOINT output."""
 
     def basis(self, p):
         return 0.0, p.el
@@ -229,4 +226,6 @@ class PEE1(LinearTerm):
 LINEAR_TERMS: dict[str, type[LinearTerm]] = {
     cls.__name__: cls for cls in (IA, IE, CA, NPAE, AN, AW, TF, TX, ACEC, ACES, ECEC, ECES, PAA1, PEE1)
 }
-"""TPOINT name -> linear-form term class."""
+"""TPOINT name -> linear-form term class (with :mod:`pointax.terms.tpoint_special`'s)."""
+
+LINEAR_TERMS.update(SPECIAL_ALTAZ_TERMS)
