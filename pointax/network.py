@@ -539,7 +539,7 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         one = site_result(result, k)
         head = _header(entry)
         if entry.format == "tpoint":
-            head.update(caption=run.caption, form=entry.form, residuals=entry.residuals)
+            head.update(caption=run.caption, form=entry.form, residuals=entry.residuals, start_model=None)
         out[entry.site] = {**head, **statuses[k], **one.to_dict()}
         # As pointax fit --json: no masks, one entry per observation. The batched fit has
         # the residuals of every row it used (no model evaluation per site here); a row
