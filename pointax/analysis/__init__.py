@@ -5,7 +5,8 @@ automatic model building.
     pointax/analysis/folds.py           out-of-sample schemes: holdout sets, k-fold cross-validation
     pointax/analysis/families.py        model families by name (X-Y paper families, TPOINT alt-az sets)
     pointax/analysis/comparison.py      compare(): families side by side, the paper's Table 3
-    pointax/analysis/model_building.py  build_model(): grow and prune a model term by term (TPOINT's FAUTO)
+    pointax/analysis/fauto.py           fauto(): TPOINT-style FAUTO: physical terms, then harmonics, by significance
+    pointax/analysis/model_building.py  build_model(): grow and prune a model term by term, by cross-validation
     pointax/analysis/building_fits.py   build_model's least-squares fits over masks of terms and rows
 
 :func:`compare` and :func:`build_model` are also ``pointax.compare`` and
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 from .building_fits import STEP_TOLERANCE
 from .comparison import BEFORE, Comparison, FamilyStats, compare
+from .fauto import FAUTO_PHYSICAL, Fauto, FautoStep, fauto, harmonic_candidates
 from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, EQUATORIAL_FAMILIES, EQUATORIAL_HARMONICS, family_model
 from .folds import fold_indices, holdout_indices
 from .model_building import BuildStep, ModelBuild, build_model
@@ -36,6 +38,11 @@ __all__ = [
     "ModelBuild",
     "compare",
     "build_model",
+    "fauto",
+    "Fauto",
+    "FautoStep",
+    "FAUTO_PHYSICAL",
+    "harmonic_candidates",
     "family_model",
     "axis_rms",
     "information_criteria",

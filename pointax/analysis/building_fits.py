@@ -256,7 +256,10 @@ class Builder:
 
     def pooled(self, r: np.ndarray) -> float:
         """Out-of-sample total RMS (eqs 21-23) of the splits' predictions: ``r`` is
-        ``(k, n, 2)``, split ``k``'s residuals of every observation."""
+        ``(k, n, 2)``, split ``k``'s residuals of every observation; NaN for a scheme
+        without splits (:func:`pointax.analysis.fauto` fits in sample only)."""
+        if not self.scheme.splits:
+            return math.nan
         pieces = [r[k][v_rows] for k, (_, v_rows) in enumerate(self.scheme.splits)]
         cos = None if self.cos2 is None else np.concatenate([self.cos2[v] for _, v in self.scheme.splits])
         return axis_rms(np.concatenate(pieces), cos).total

@@ -179,9 +179,18 @@ def build_model(
     form: str = "linear",
     progress: bool = False,
 ) -> ModelBuild:
-    """Build a model automatically, in the spirit of TPOINT's FAUTO: add candidate terms
-    that are significant and predict unseen stars better, drop terms that are not
-    significant, and record the path.
+    """Build a model automatically by cross-validation: add candidate terms that are
+    significant and predict unseen stars better, drop terms that are not significant,
+    and record the path.
+
+    How it differs from :func:`pointax.analysis.fauto` (TPOINT-style FAUTO, what the
+    ``FAUTO`` command runs): ``fauto`` starts from the mount's basic physical terms and
+    keeps them, tries the further physical terms before any harmonic, judges a term in
+    sample (``|value / sigma| >= 2`` and a lower Popn SD) and never tries a candidate
+    nearly collinear with a term in the model; ``build_model`` starts from the model
+    given, treats every candidate alike, requires a lower out-of-sample RMS (k-fold or
+    holdout) and a higher significance to add (3 by default), and has no collinearity
+    screen beyond rank deficiency (``FAUTO CV`` in a session, ``pointax.build_model``).
 
     The rules, applied in turn until neither changes the model (or after ``max_steps``
     add and drop steps):

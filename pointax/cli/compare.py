@@ -1,6 +1,6 @@
 """``pointax compare``: fit several model families to one pointing run and compare them.
 
-    pointax compare DATA --families basic,harmonic [--mount altaz|equatorial|xy] [--format tpoint|gpoint|xy]
+    pointax compare DATA --families basic,harmonic,fauto [--mount altaz|equatorial|xy] [--format tpoint|gpoint|xy]
                     [--azimuth N-E|S-E|S-W] [--holdout FRACTION | --folds K] [--seed N]
                     [--per-axis angle|sky] [--form linear|rigorous] [--json]
 
@@ -26,7 +26,9 @@ gpoint`` gpoint's names (``gpoint`` = gpoint's seven, ``ia``, extras); equatoria
 ``basic`` (IH ID CH NP MA ME), ``flexure`` (those and TF FO DAF), ``harmonic`` (those
 and the second hour-angle harmonics) and TPOINT's equatorial names; X-Y ``basic``,
 ``harmonic``, ``rotation``, ``linearised`` and term names of :mod:`pointax.terms.xy`.
-``--family SPEC`` (repeatable) adds one family whose terms may contain ``;`` (gpoint
+The family ``fauto`` is the model :func:`pointax.analysis.fauto` builds on the run (the
+mount's physical terms and the harmonics, to order ``--fauto-order``, it keeps); its step
+table is printed before the comparison (``"fauto"`` in the JSON). ``--family SPEC`` (repeatable) adds one family whose terms may contain ``;`` (gpoint
 extras such as ``az:sincos:az;el:2;2``).
 
 Out of sample: ``--folds K`` (k-fold cross-validation, default 5), ``--holdout
@@ -66,13 +68,49 @@ COMPARE_FORMATS = ("tpoint", "gpoint", "xy")
 _PREFIX = "pointax compare"
 
 
+FAUTO_FAMILY = "fauto"
+"""The family name that stands for the model :func:`pointax.analysis.fauto` builds on the run."""
+
+
 def _known_names(mount: str, naming: str) -> set[str]:
     if mount == "xy":
-        return set(choices.XY_FAMILIES) | {"linearized"}
+        return set(choices.XY_FAMILIES) | {"linearized", FAUTO_FAMILY}
     if mount == "equatorial":
-        return {"basic", "flexure", "harmonic"}
-    names = {"basic", "harmonic"}
+        return {"basic", "flexure", "harmonic", FAUTO_FAMILY}
+    names = {"basic", "harmonic", FAUTO_FAMILY}
     return names | {"gpoint"} if naming == "gpoint" else names
+
+
+def _is_term(name: str, mount: str, naming: str) -> bool:
+    """Whether ``name`` is a term name for the mount (as :func:`pointax.analysis.family_model` reads it)."""
+    from .. import terms
+
+    try:
+        if mount == "xy":
+            from ..analysis.families import _xy_terms
+
+            _xy_terms([name])
+        elif mount == "equatorial":
+            terms.tpoint([name], mount="equatorial", latitude=0.5)
+        elif naming == "gpoint":
+            terms.gpoint_terms([name])
+        else:
+            terms.tpoint([name])
+    except (ValueError, KeyError, TypeError):
+        return False
+    return True
+
+
+def _check_comma_list(parts: list[str], mount: str, naming: str) -> None:
+    """A comma-separated ``--families`` list names families and terms: an item that is
+    neither is answered with the families known for the mount."""
+    known = _known_names(mount, naming)
+    for p in parts:
+        if p.lower() not in known and p not in known and not _is_term(p, mount, naming):
+            raise ValueError(
+                f"--families: unknown family {p!r} for a {mount} run; families: {', '.join(sorted(known))} "
+                "(or term names, or families separated by ';')"
+            )
 
 
 def parse_families(text: str, extra: list[str] | None, mount: str, naming: str) -> dict[str, str]:
@@ -87,7 +125,12 @@ def parse_families(text: str, extra: list[str] | None, mount: str, naming: str) 
         else:
             parts = [s.strip() for s in text.split(",")]
             known = _known_names(mount, naming)
-            items = parts if all(p.lower() in known or p in known for p in parts) else [text]
+            if all(p.lower() in known or p in known for p in parts):
+                items = parts
+            else:
+                if "," in text and not any(c in text for c in " =:"):
+                    _check_comma_list(parts, mount, naming)
+                items = [text]
     items += [s.strip() for s in (extra or []) if s.strip()]
     if not items:
         raise ValueError("--families: give at least one family, e.g. --families basic,harmonic")
@@ -164,6 +207,13 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
         help="per-axis RMS of the first axis: its angle (the level-mount paper's; default for --mount xy) "
         "or the offset on the sky (TPOINT's dA cos E; default for altaz)",
     )
+    p.add_argument(
+        "--fauto-order",
+        type=int,
+        default=3,
+        metavar="N",
+        help="the family 'fauto' (TPOINT-style FAUTO on the run): harmonics up to this order (default: %(default)s)",
+    )
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on a terminal)")
@@ -224,6 +274,7 @@ def _comparison(args):
     from ..compilation_cache import enable_compilation_cache
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
+    built = _fauto_families(families, obs, args)
     result = compare(
         families,
         obs,
@@ -235,7 +286,23 @@ def _comparison(args):
         progress=not getattr(args, "quiet", False),
         **scheme,
     )
-    return result, fmt, mount
+    return result, fmt, mount, built
+
+
+def _fauto_families(families: dict[str, str], obs, args):
+    """Replace a ``fauto`` family by the terms :func:`pointax.analysis.fauto` chooses on all
+    the run's stars (harmonics to ``--fauto-order``); returns that FAUTO result (or None).
+    The folds then refit those terms: the choice itself saw every star."""
+    wanted = [label for label, spec in families.items() if spec.strip().lower() == FAUTO_FAMILY]
+    if not wanted:
+        return None
+    from ..analysis.fauto import fauto
+
+    built = fauto(obs, max_order=args.fauto_order, form=args.form)
+    names = " ".join(t.name for t in built.model.terms)
+    for label in wanted:
+        families[label] = names
+    return built
 
 
 def run_compare(args) -> int:
@@ -245,7 +312,7 @@ def run_compare(args) -> int:
     if missing:
         return error(_PREFIX, missing)
     try:
-        result, fmt, mount = _comparison(args)
+        result, fmt, mount, built = _comparison(args)
     except (ValueError, KeyError, TypeError) as err:  # the readers' errors are ValueErrors
         return error(_PREFIX, err)
     except OSError as err:
@@ -257,8 +324,12 @@ def run_compare(args) -> int:
             "format": fmt,
             **result.to_dict(),
         }
+        if built is not None:
+            out["fauto"] = built.to_dict()
         print(json.dumps(out, indent=2))
     else:
+        if built is not None:
+            print(built.report() + "\n")
         print(result.table())
     converged = all(row.converged for row in result.rows)
     return 0 if converged else 1

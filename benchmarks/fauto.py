@@ -1,0 +1,146 @@
+"""pointax's FAUTO against TPOINT's on real runs with the model TPOINT's FAUTO wrote.
+
+For every run/model pair (``RUN.dat`` beside ``RUN.mod`` or ``RUN.MOD``) in the folders
+given with ``--pairs`` (and the repository's own runs with a TPOINT model: the bundled
+MMT run, whose model is a plain 8-term fit, shown for reference), runs
+:func:`pointax.analysis.fauto` on the run and prints per run: pointax's and TPOINT's term
+count, N and Sky RMS, and the leave-one-out RMS (each star predicted by an explicit
+refit on the others; on-sky, arcsec) of pointax's FAUTO model and of TPOINT's model's
+terms fitted by pointax. A model is TPOINT's FAUTO model when it flags terms '&'.
+Targets (FAUTO pairs only): pointax's Sky RMS at most 1.1 x TPOINT's, at most TPOINT's
+term count + 2 terms, and a leave-one-out RMS no worse than that of TPOINT's terms.
+Writes benchmarks/results/fauto.json.
+
+    .venv/bin/python benchmarks/fauto.py [--pairs FOLDER ...] [--azimuth S-E] [--order 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+import pointax as px
+from pointax.analysis.fauto import fauto
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+BUNDLED = [(REPO / "examples" / "data" / "mmt_20210821.dat", REPO / "examples" / "data" / "mmt_20210821.mod", "S-E")]
+
+
+def find_pairs(folder: Path, azimuth: str) -> list[tuple[Path, Path, str]]:
+    """``(run, model, azimuth)`` for every ``*.dat`` with a model file of the same stem."""
+    out = []
+    for dat in sorted(folder.glob("*.dat")):
+        for ext in (".mod", ".MOD"):
+            mod = dat.with_suffix(ext)
+            if mod.exists():
+                out.append((dat, mod, azimuth))
+                break
+    return out
+
+
+def loo_rms(model: px.Model, obs) -> float:
+    """Leave-one-out RMS (radians): star i's on-sky residual from a fit of the others
+    (weight 0 on star i), over every star."""
+    n = len(obs.encoder)
+    sq = []
+    for i in range(n):
+        w = np.ones(n)
+        w[i] = 0.0
+        result = px.fit(model, obs, weights=w)
+        r = np.asarray(px.residuals(result.model, obs))[i]
+        sq.append(float(r @ r))
+    return math.sqrt(sum(sq) / n)
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the repository when inside it, else as given."""
+    try:
+        return str(Path(path).resolve().relative_to(REPO))
+    except ValueError:
+        return str(path)
+
+
+def one_pair(dat: Path, mod: Path, azimuth: str, order: int) -> dict:
+    """FAUTO on the run and the comparison with TPOINT's model (figures in arcsec)."""
+    arcsec = px.units.ARCSEC
+    run = px.io.read_tpoint(dat, azimuth=azimuth)
+    tp = px.io.read_model(mod)
+    is_fauto = any(t.parallel for t in tp.terms)
+    t0 = time.perf_counter()
+    built = fauto(run, max_order=order)
+    seconds = time.perf_counter() - t0
+    tp_model = run.model(px.terms.tpoint([t.name.upper() for t in tp.terms], **run.term_options()))
+    tp_fit = px.fit(tp_model, run.observations)
+    ours = run.model(built.model.terms)
+    row = {
+        "run": _shown(dat),
+        "model": _shown(mod),
+        "tpoint_fauto_model": is_fauto,
+        "n_obs": len(run),
+        "tpoint_n": tp.n_obs,
+        "tpoint_terms": len(tp.terms),
+        "tpoint_sky_rms": tp.sky_rms,
+        "pointax_terms": len(built.names),
+        "pointax_sky_rms": built.sky_rms / arcsec,
+        "tpoint_terms_fitted_by_pointax_sky_rms": float(tp_fit.sky_rms) / arcsec,
+        "pointax_loo_rms": loo_rms(ours, run.observations) / arcsec,
+        "tpoint_terms_loo_rms": loo_rms(tp_model, run.observations) / arcsec,
+        "pointax_added": list(built.added),
+        "tpoint_added": [t.name for t in tp.terms if t.parallel],
+        "fauto_seconds": seconds,
+    }
+    if is_fauto and tp.sky_rms:
+        row["targets"] = {
+            "sky_rms_at_most_1.1x": row["pointax_sky_rms"] <= 1.1 * tp.sky_rms,
+            "terms_at_most_tpoint_plus_2": row["pointax_terms"] <= row["tpoint_terms"] + 2,
+            "loo_no_worse": row["pointax_loo_rms"] <= row["tpoint_terms_loo_rms"],
+        }
+    return row
+
+
+def main() -> dict:
+    jax.config.update("jax_enable_x64", True)  # the leave-one-out refits and residuals in float64
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--pairs", action="append", default=[], metavar="FOLDER", help="folder of RUN.dat + RUN.mod pairs")
+    parser.add_argument("--azimuth", default="N-E", help="how the --pairs runs count azimuth (default N-E; MMT: S-E)")
+    parser.add_argument("--order", type=int, default=3, help="FAUTO's highest harmonic order (default 3)")
+    parser.add_argument("--no-bundled", action="store_true", help="leave out the repository's own runs")
+    parser.add_argument("--out", default=str(HERE / "results" / "fauto.json"))
+    args = parser.parse_args()
+
+    pairs = [] if args.no_bundled else list(BUNDLED)
+    for folder in args.pairs:
+        pairs += find_pairs(Path(folder), args.azimuth)
+    rows = [one_pair(dat, mod, az, args.order) for dat, mod, az in pairs]
+    head = (
+        f"{'run':<28s} {'FAUTO?':>6s} {'N':>4s} {'M px':>5s} {'M TP':>5s} {'Sky px':>7s} {'Sky TP':>7s} "
+        f"{'LOO px':>7s} {'LOO TP':>7s}  targets"
+    )
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        t = r.get("targets")
+        verdict = "n/a (not a FAUTO model)" if t is None else ("met" if all(t.values()) else "MISSED: " + ", ".join(
+            k for k, ok in t.items() if not ok))
+        print(
+            f"{Path(r['run']).name[:28]:<28s} {'yes' if r['tpoint_fauto_model'] else 'no':>6s} {r['n_obs']:4d} "
+            f"{r['pointax_terms']:5d} {r['tpoint_terms']:5d} {r['pointax_sky_rms']:7.3f} "
+            f"{(r['tpoint_sky_rms'] or float('nan')):7.3f} {r['pointax_loo_rms']:7.3f} {r['tpoint_terms_loo_rms']:7.3f}  {verdict}"
+        )
+    print("\nSky RMS, LOO: arcsec; LOO TP: TPOINT's terms fitted by pointax, each star left out in turn.")
+    out = {"order": args.order, "runs": rows}
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    # Paths of --pairs runs outside the repository are kept as given (their source is the user's).
+    Path(args.out).write_text(json.dumps(out, indent=2) + "\n")
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,468 @@
+"""TPOINT-style FAUTO (:func:`fauto`): start from the mount's basic physical terms, try
+its further physical terms, then harmonics up to a chosen order, keep a term while it is
+significant, drop terms that lose significance, never add a term that mimics one
+already in the model, and report the steps, the weak outlier candidates and the pairs
+of terms the data cannot reliably tell apart.
+
+The rule (pointax's; TPOINT's manual and help files available to us describe FAUTO's
+purpose, not its numerical rule, so the thresholds here are pointax's choice):
+
+* **add**: among the candidates open at this stage, those whose ``|value / sigma|`` in
+  the enlarged fit is at least ``significance`` (default 2), which lower TPOINT's
+  Popn SD, and whose parameters' correlation with every parameter already fitted is
+  within ``collinearity`` (default ``|r| <= 0.99``, from the enlarged fit's covariance
+  ``(J^T J)^-1``) are eligible; the one with the lowest Popn SD is added (ties: the
+  first in candidate order), and the model refitted;
+* **drop**: after each addition, while a term FAUTO added has ``|value / sigma| <
+  significance``, the least significant one is dropped (and not tried again);
+* **stages**: the further physical terms first; then the harmonics of every order up
+  to ``max_order`` together (lower orders first in the candidate order, which breaks
+  ties); a stage ends when no candidate is eligible. (Opening the orders one at a time
+  lets a low-order harmonic take the place of a higher-order one the data hold: on a
+  simulated run with HECE3, HECE2 came in at order 2 and HECE3 was then left out.)
+
+The fits are :class:`pointax.analysis.building_fits.Builder`'s (converged Gauss-Newton
+fits on masks of terms: trying a term compiles nothing); candidates are screened by one
+linearised step from the current fit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import jax
+import numpy as np
+
+from .._x64 import float64
+from ..model import Model
+from ..mounts import AltAzMount, EquatorialMount, XYMount
+from ..terms import xy as xy_terms
+from ..units import ARCSEC, UNITS
+from .building_fits import Builder, FitState, _steps_program
+from .families import family_model
+from ..fitting.residuals import as_observations
+from .folds import evaluation_scheme
+from .statistics import finite_or_none, resolve_per_axis, second_axis_cosines
+
+__all__ = ["FAUTO_PHYSICAL", "FautoStep", "Fauto", "fauto", "harmonic_candidates"]
+
+FAUTO_PHYSICAL: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "altaz": (("IA", "IE", "CA", "NPAE", "AN", "AW", "TF", "TX"), ("ACEC", "ACES", "ECEC", "ECES")),
+    "equatorial": (("IH", "ID", "CH", "NP", "MA", "ME", "TF"), ("FO", "DAF", "TX", "HCES", "HCEC", "DCES", "DCEC")),
+    "xy": (("basic",), ()),
+}
+"""Mount kind -> (basic physical terms, further physical terms) FAUTO starts from and
+tries first. X-Y: the level-mount paper's basic family (:mod:`pointax.terms.xy`)."""
+
+
+def _mount_kind(mount) -> str:
+    if isinstance(mount, XYMount):
+        return "xy"
+    if isinstance(mount, EquatorialMount):
+        return "equatorial"
+    if isinstance(mount, AltAzMount):
+        return "altaz"
+    raise ValueError(f"FAUTO knows alt-az, equatorial and X-Y mounts, not a {type(mount).__name__}")
+
+
+def _xy_degree(name: str) -> int:
+    """Degree of an X-Y spherical-harmonic term (SHL_1: 0, SHL_sinB^2: 2, SHL_cosL_sinB_cosB: 2)."""
+    body = name.split("_", 1)[1]
+    if body == "1":
+        return 0
+    degree = 0
+    for factor in body.split("_"):
+        base, _, power = factor.partition("^")
+        degree += int(power) if power else 1
+    # cosL cosB and sinL cosB are degree 1 in the direction cosines: L factors do not count.
+    return degree - sum(1 for f in body.split("_") if f.endswith("L"))
+
+
+def harmonic_candidates(kind: str, order: int) -> tuple[str, ...]:
+    """Harmonic term names of exactly ``order`` for a mount kind: alt-az TPOINT ``H{A,E,S}
+    {S,C}{A,E}k`` (k = order), equatorial ``H{H,D,X}{S,C}{H,D}k``, X-Y the level-mount
+    paper's spherical harmonics of that degree (order 1 also takes degree 0)."""
+    if kind == "altaz":
+        return tuple(f"H{w}{f}{a}{order}" for w in "AES" for f in "SC" for a in "AE")
+    if kind == "equatorial":
+        return tuple(f"H{w}{f}{a}{order}" for w in "HDX" for f in "SC" for a in "HD")
+    if kind == "xy":
+        return tuple(n for n in xy_terms.SphericalHarmonic.TABLE if max(_xy_degree(n), 1) == order)
+    raise ValueError(f"unknown mount kind {kind!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class FautoStep:
+    """One step of :func:`fauto`.
+
+    Attributes:
+        stage: 'start', 'physical' or 'harmonic'.
+        action: 'start', 'add' or 'drop'.
+        term: the term added or dropped (for 'start' the start model's terms).
+        n_terms: fitted parameters after the step (M).
+        sky_rms, popn_sd: TPOINT's Sky RMS and Popn SD after the step, radians.
+        significance: the term's ``|value / sigma|`` (added: in the model it joined;
+            dropped: in the model it left).
+    """
+
+    stage: str
+    action: str
+    term: str
+    n_terms: int
+    sky_rms: float
+    popn_sd: float
+    significance: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "stage": self.stage,
+            "action": self.action,
+            "term": self.term,
+            "n_terms": self.n_terms,
+            "sky_rms_arcsec": finite_or_none(self.sky_rms / ARCSEC),
+            "popn_sd_arcsec": finite_or_none(self.popn_sd / ARCSEC),
+            "significance": finite_or_none(self.significance),
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class Fauto:
+    """The outcome of :func:`fauto`.
+
+    Attributes:
+        model: the final model, fitted (converged) on the observations.
+        steps: the :class:`FautoStep` s, 'start' first.
+        added: names of the terms FAUTO added (flagged '&' in a model file).
+        names, values, sigmas, units: the fitted parameters (internal units, radians).
+        n_obs: stars fitted; sky_rms, popn_sd: the final fit's, radians.
+        mimics: ``(candidate, term in the model, r)`` for candidates left out because
+            they mimic a term in the model (first time seen).
+        outliers: ``(row, on-sky residual in radians)`` of the weak outlier candidates,
+            rows numbered from 0 in the observations given (weight-0 rows counted).
+        correlated: ``(name, name, r)`` of fitted parameter pairs with ``|r| >=``
+            ``correlated`` (not reliably distinguished).
+        rules: the rules used, in words.
+    """
+
+    model: Model
+    steps: tuple[FautoStep, ...]
+    added: tuple[str, ...]
+    names: tuple[str, ...]
+    values: np.ndarray
+    sigmas: np.ndarray
+    units: tuple[str, ...]
+    n_obs: int
+    sky_rms: float
+    popn_sd: float
+    mimics: tuple[tuple[str, str, float], ...]
+    outliers: tuple[tuple[int, float], ...]
+    correlated: tuple[tuple[str, str, float], ...]
+    rules: str
+
+    def report(self) -> str:
+        """The step table (arcsec), the final model, outlier candidates and correlated pairs."""
+        width = max(10, *(len(s.term) for s in self.steps if s.action != "start"), 4)
+        head = f"{'step':>4s}  {'stage':<9s} {'action':<6s} {'term':<{width}s} {'M':>3s} {'Sky RMS':>9s} {'Popn SD':>9s} {'|v/sig|':>8s}"
+        lines = [f"FAUTO ({self.rules})", "", head, "-" * len(head)]
+        for k, s in enumerate(self.steps):
+            sig = "" if s.action == "start" else f"{s.significance:8.1f}"
+            term = "" if s.action == "start" else s.term
+            lines.append(
+                f"{k:4d}  {s.stage:<9s} {s.action:<6s} {term:<{width}s} {s.n_terms:3d} {s.sky_rms / ARCSEC:9.3f} "
+                f"{s.popn_sd / ARCSEC:9.3f} {sig:>8s}"
+            )
+        lines += ["", f"start: {self.steps[0].term}", f"final model: {len(self.names)} terms, N {self.n_obs}, "
+                  f"Sky RMS {self.sky_rms / ARCSEC:.3f}\", Popn SD {self.popn_sd / ARCSEC:.3f}\""]
+        for n, v, s, u in zip(self.names, self.values, self.sigmas, self.units):
+            scale = UNITS[u]
+            flag = "&" if n in self.added else " "
+            unit = "" if u == "arcsec" else f"  ({u})"
+            lines.append(f" {flag}{n:<{width}s} {v / scale:+12.4f} {s / scale:11.4f}{unit}")
+        if self.mimics:
+            lines.append("not tried, mimic a term in the model: " + ", ".join(
+                f"{c} ~ {t} (r {r:+.3f})" for c, t, r in self.mimics))
+        if self.outliers:
+            lines.append("weak outlier candidates (observation: on-sky residual): " + ", ".join(
+                f"{i + 1}: {r / ARCSEC:.2f}\"" for i, r in self.outliers))
+        if self.correlated:
+            lines.append("cannot reliably be distinguished: " + ", ".join(
+                f"{a}/{b} (r {r:+.3f})" for a, b, r in self.correlated))
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "rules": self.rules,
+            "n_obs": self.n_obs,
+            "sky_rms_arcsec": finite_or_none(self.sky_rms / ARCSEC),
+            "popn_sd_arcsec": finite_or_none(self.popn_sd / ARCSEC),
+            "steps": [s.to_dict() for s in self.steps],
+            "terms": [
+                {"name": n, "value": finite_or_none(v / UNITS[u]), "sigma": finite_or_none(s / UNITS[u]),
+                 "unit": u, "added": n in self.added}
+                for n, v, s, u in zip(self.names, self.values, self.sigmas, self.units)
+            ],
+            "mimics": [{"candidate": c, "term": t, "r": r} for c, t, r in self.mimics],
+            "outliers": [{"observation": i + 1, "residual_arcsec": r / ARCSEC} for i, r in self.outliers],
+            "correlated": [{"a": a, "b": b, "r": r} for a, b, r in self.correlated],
+        }
+
+    def model_file_terms(self):
+        """The final model as :class:`pointax.io.tpoint_model.ModelTerm` s (arcsec), FAUTO's
+        additions flagged '&', fixed terms '='."""
+        from ..io.tpoint_model import ModelTerm
+
+        sigma = dict(zip(self.names, self.sigmas))
+        out = []
+        for p in self.model.parameters:
+            s = sigma.get(p.name)
+            out.append(ModelTerm(p.name, float(self.model.get(p.name)) / ARCSEC,
+                                 None if s is None else float(s) / ARCSEC,
+                                 fixed=p.name in self.model.fixed, parallel=p.name in self.added))
+        return out
+
+    def write_model(self, path, caption: str = "pointax FAUTO", refraction=(0.0, 0.0)) -> None:
+        """Write the final model as a TPOINT model file, with N, Sky RMS and sigmas, and
+        FAUTO's additions flagged '&' (:func:`pointax.io.tpoint_model.format_model`)."""
+        from pathlib import Path
+
+        from ..io.tpoint_model import format_model
+
+        text = format_model(self.model_file_terms(), caption, self.n_obs, self.sky_rms / ARCSEC, refraction, "lines")
+        Path(path).write_text(text)
+
+
+def _popn_sd(sky_rms: float, n: int, m: int) -> float:
+    """TPOINT's Popn SD = Sky RMS sqrt(N / (N - M)); NaN when N <= M."""
+    return sky_rms * math.sqrt(n / (n - m)) if n > m else math.nan
+
+
+def _correlations(jac: np.ndarray, cols: Sequence[int]) -> np.ndarray | None:
+    """Parameter correlations ``C_ij / sqrt(C_ii C_jj)`` of ``C = (J^T J)^-1`` over ``cols``
+    (columns scaled to unit length first, which leaves the correlations as they are and
+    keeps the inverse well conditioned); None when the columns are linearly dependent
+    (a correlation of 1 in effect)."""
+    a = jac[:, list(cols)]
+    norms = np.linalg.norm(a, axis=0)
+    if np.any(norms == 0) or not np.all(np.isfinite(a)):
+        return None
+    a = a / norms
+    if np.linalg.matrix_rank(a, tol=1e-10) < a.shape[1]:
+        return None
+    cov = np.linalg.inv(a.T @ a)
+    d = np.sqrt(np.diag(cov))
+    r = cov / np.outer(d, d)
+    if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1 + 1e-6:
+        return None
+    return np.clip(r, -1.0, 1.0)
+
+
+class _Search:
+    """The state of one FAUTO search over a superset (:class:`Builder`)."""
+
+    def __init__(self, builder: Builder, params, names: list[str], n_obs: int, collinearity: float):
+        self.b, self.params, self.names, self.n, self.collinearity = builder, params, names, n_obs, collinearity
+        self.mimics: dict[str, tuple[str, str, float]] = {}
+
+    def popn(self, state: FitState) -> float:
+        return _popn_sd(state.sky_rms, self.n, state.n_params)
+
+    def jacobian(self, state: FitState) -> np.ndarray:
+        rows = np.repeat(self.b.scheme.fit_rows, 2)
+        return self.b.linearise(state.y)[1][rows]
+
+    def screen(self, state: FitState, t: int, jac: np.ndarray) -> tuple[float, float] | None:
+        """``(|value/sigma|, Popn SD)`` with ``t`` added (one linearised step), or None when
+        it cannot be determined or mimics a term in the model."""
+        free = self.b.mask(state.active | {t})
+        cols_new = self.b.columns[t]
+        if self.n - int(free.sum()) < 1:
+            return None
+        cols = list(np.flatnonzero(free))
+        r = _correlations(jac, cols)
+        if r is None:
+            name = self.names[t]
+            self.mimics.setdefault(name, (name, "the model's terms together", 1.0))
+            return None
+        new = [cols.index(c) for c in cols_new]
+        old = [k for k in range(len(cols)) if k not in new]
+        if old:
+            sub = np.abs(r[np.ix_(new, old)])
+            k = np.unravel_index(int(np.argmax(sub)), sub.shape)
+            if sub[k] > self.collinearity:
+                partner = self.params[cols[old[k[1]]]]
+                name = self.names[t]
+                self.mimics.setdefault(name, (name, self.names[partner.term], float(r[new[k[0]], old[k[1]]])))
+                return None
+        s = _steps_program()(*state.origin, jax.device_put(free), self.b.rows)
+        sig = np.asarray(s.sigmas)[0, cols_new]
+        if np.any(~np.isfinite(sig)) or np.any(sig <= 0):
+            return None
+        z = float(np.max(np.abs(np.asarray(s.values)[0, cols_new] / sig)))
+        return z, _popn_sd(float(np.asarray(s.sky_rms)[0]), self.n, int(free.sum()))
+
+
+def _start_model(data, start, kind_hint, form):
+    """The start model and the mount kind."""
+    if isinstance(start, Model):
+        return start, _mount_kind(start.mount)
+    if start is not None and not isinstance(start, str):
+        raise TypeError(f"start must be a pointax.Model, term names or None, got {type(start).__name__}")
+    probe = family_model("basic", data, form=form) if kind_hint is None else None
+    kind = kind_hint or _mount_kind(probe.mount)
+    names = start if start is not None else " ".join(FAUTO_PHYSICAL[kind][0])
+    return family_model(names, data, form=form), kind
+
+
+@float64
+def fauto(
+    data,
+    *,
+    start: Model | str | None = None,
+    further: Iterable[str] | None = None,
+    max_order: int = 3,
+    harmonics: Iterable[str] | None = None,
+    significance: float = 2.0,
+    collinearity: float = 0.99,
+    keep_start: bool = True,
+    outlier_sigmas: float = 3.0,
+    correlated: float = 0.95,
+    form: str = "linear",
+) -> Fauto:
+    """TPOINT-style automatic model building (FAUTO; the module docstring gives the rule).
+
+    Args:
+        data: the observations (alt-az or X-Y), or a TPOINT run (:func:`pointax.io.read_tpoint`;
+            an equatorial run gives its latitude). Observations at weight 0 are left out.
+        start: the start model (a :class:`pointax.Model`) or term names; default the
+            mount's basic physical terms (:data:`FAUTO_PHYSICAL`: alt-az IA IE CA NPAE AN
+            AW TF TX, equatorial IH ID CH NP MA ME TF, X-Y the basic family).
+        further: further physical terms tried first (default :data:`FAUTO_PHYSICAL`'s).
+        max_order: highest harmonic order tried (:func:`harmonic_candidates`; default 3).
+        harmonics: harmonic names to try instead (all in the first harmonic stage).
+        significance: the ``|value / sigma|`` a term needs to be added and to stay (default 2).
+        collinearity: a candidate whose parameter correlation with a term in the model
+            exceeds this in absolute value is not tried (default 0.99).
+        keep_start: the start model's terms are never dropped (default True, as TPOINT's
+            FAUTO models keep the mount's physical terms).
+        outlier_sigmas: observations whose on-sky residual exceeds this many Popn SD are
+            reported as weak outlier candidates (default 3).
+        correlated: fitted pairs with ``|r|`` at least this are reported (default 0.95).
+        form: 'linear' or 'rigorous' TPOINT term forms.
+
+    Returns:
+        :class:`Fauto`; ``print(result.report())``; ``result.write_model(path)``.
+    """
+    if not (math.isfinite(significance) and significance > 0 and 0 < collinearity <= 1):
+        raise ValueError(f"significance must be > 0 and 0 < collinearity <= 1, got {significance!r}, {collinearity!r}")
+    if int(max_order) != max_order or max_order < 0:
+        raise ValueError(f"max_order must be a whole number >= 0, got {max_order!r}")
+    obs = getattr(data, "observations", data)
+    kind_hint = "equatorial" if getattr(data, "mount", None) == "equatorial" else None
+    scheme = evaluation_scheme(obs, None, None, 0)
+    in_use = np.flatnonzero(np.asarray(as_observations(obs).weight) > 0)  # rows of ``data`` fitted
+    start_model, kind = _start_model(data, start, kind_hint, form)
+    in_start = {t.name for t in start_model.terms}
+    stages: list[tuple[str, list[str]]] = []
+    physical = list(FAUTO_PHYSICAL[kind][1] if further is None else further)
+    stages.append(("physical", [n for n in physical if n not in in_start]))
+    if harmonics is not None:
+        stages.append(("harmonic", [n for n in harmonics if n not in in_start]))
+    elif max_order >= 1:
+        names = [n for k in range(1, int(max_order) + 1) for n in harmonic_candidates(kind, k)]
+        stages.append(("harmonic", [n for n in names if n not in in_start]))
+    pool = [n for _, names in stages for n in names]
+    if len(set(pool)) != len(pool):
+        raise ValueError("a candidate is named twice")
+    extra = family_model(pool, start_model.mount, form=form).terms if pool else ()
+    superset = start_model.with_terms(*extra)
+    superset = superset.set(**{p.name: 0.0 for p in superset.parameters[len(start_model.parameters):]})
+    cos2 = second_axis_cosines(start_model.mount, scheme.obs, resolve_per_axis(start_model.mount, None))
+    builder = Builder(superset, scheme, cos2)
+    names = [t.name for t in superset.terms]
+    n_start = len(start_model.terms)
+    index = {n: i for i, n in enumerate(names)}
+    search = _Search(builder, superset.parameters, names, scheme.n_fit, collinearity)
+    kept = set(range(n_start)) if keep_start else set()
+
+    state = builder.state(frozenset(i for i in range(n_start) if builder.columns.get(i)), builder.y_start)
+    steps = [FautoStep("start", "start", " ".join(names[:n_start]), state.n_params, state.sky_rms,
+                       search.popn(state), math.nan)]
+    barred: set[int] = set()
+    open_ids: list[int] = []
+    for stage, stage_names in stages:
+        open_ids += [index[n] for n in stage_names if builder.columns.get(index[n])]
+        while True:
+            jac = search.jacobian(state)
+            current = search.popn(state)
+            best = None
+            for t in open_ids:
+                if t in state.active or t in barred:
+                    continue
+                got = search.screen(state, t, jac)
+                if got is None or got[0] < significance or not got[1] < current:
+                    continue
+                if best is None or got[1] < best[1]:
+                    best = (t, got[1])
+            if best is None:
+                break
+            state = builder.state(state.active | {best[0]}, state.y)
+            steps.append(FautoStep(stage, "add", names[best[0]], state.n_params, state.sky_rms, search.popn(state),
+                                   builder.significance(state, best[0])))
+            while True:
+                z = {t: builder.significance(state, t) for t in sorted(state.active - kept)}
+                weak = [t for t in z if z[t] < significance]
+                if not weak:
+                    break
+                t = min(weak, key=lambda k: (z[k], k))
+                barred.add(t)
+                state = builder.state(state.active - {t}, state.y)
+                steps.append(FautoStep(stage, "drop", names[t], state.n_params, state.sky_rms, search.popn(state), z[t]))
+    result = _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
+                     significance, collinearity, keep_start, max_order)
+    return dataclasses.replace(result, outliers=tuple((int(in_use[i]), r) for i, r in result.outliers))
+
+
+def _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
+            significance, collinearity, keep_start, max_order) -> Fauto:
+    names = search.names
+    final = [i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))]
+    fitted = superset.with_values(jax.device_put(state.y))
+    model = start_model.restructured(terms=[fitted.terms[i] for i in final])
+    cols = list(np.flatnonzero(builder.mask(state.active)))
+    params = superset.parameters
+    popn = search.popn(state)
+    rows = np.flatnonzero(builder.scheme.fit_rows)
+    on_sky = np.hypot(state.r[rows, 0], state.r[rows, 1])
+    outliers = tuple((int(i), float(r)) for i, r in zip(rows, on_sky) if math.isfinite(popn) and r > outlier_sigmas * popn)
+    pairs = []
+    r = _correlations(search.jacobian(state), cols)
+    if r is not None:
+        for a in range(len(cols)):
+            for b in range(a + 1, len(cols)):
+                if abs(r[a, b]) >= correlated:
+                    pairs.append((params[cols[a]].name, params[cols[b]].name, float(r[a, b])))
+    added = tuple(names[i] for i in sorted(state.active) if i >= n_start)
+    rules = (
+        f"add: |value/sigma| >= {significance:g} and Popn SD falls, no |r| > {collinearity:g} with a term in; "
+        f"drop: |value/sigma| < {significance:g}{' (start terms kept)' if keep_start else ''}; "
+        f"harmonics to order {max_order}; pointax's rule"
+    )
+    return Fauto(
+        model=model,
+        steps=tuple(steps),
+        added=added,
+        names=tuple(params[c].name for c in cols),
+        values=state.y[cols],
+        sigmas=state.sigmas[cols],
+        units=tuple(params[c].unit for c in cols),
+        n_obs=search.n,
+        sky_rms=state.sky_rms,
+        popn_sd=popn,
+        mimics=tuple(search.mimics.values()),
+        outliers=outliers,
+        correlated=tuple(pairs),
+        rules=rules,
+    )
