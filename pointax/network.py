@@ -548,7 +548,7 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         rows = eqx.tree_at(lambda r: (r.used, r.outliers), one, (np.asarray(one.used)[:n], np.asarray(one.outliers)[:n]))
         every_row = bool(np.all(np.asarray(run.observations.weight) > 0))
         residuals = np.asarray(one.residuals)[:n] if every_row else None
-        out[entry.site].update(masked=[], observations=observation_entries(run, rows, residuals=residuals))
+        out[entry.site].update(masked=[], masked_rows=[], observations=observation_entries(run, rows, residuals=residuals))
     return out
 
 

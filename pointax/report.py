@@ -108,6 +108,10 @@ def _statistics(result, data) -> str:
         ("outliers (robust fit)", str(int(data.outlier.sum()))),
         (f"Sky RMS ({data.unit})", _number(float(np.asarray(result.sky_rms)) / scale, ".4f")),
         (f"Popn SD ({data.unit})", _number(float(np.asarray(result.popn_sd)) / scale, ".4f")),
+        (
+            f"LOO RMS ({data.unit}): leave-one-out, from the hat matrix of the linearised fit (no refits)",
+            _number(float(np.asarray(getattr(result, "loo_rms", np.nan))) / scale, ".4f"),
+        ),
         ("converged", "yes" if bool(result.converged) else "NO"),
         ("iterations", str(int(np.asarray(result.iterations)))),
         ("solver, loss", f"{html.escape(result.solver)}, {html.escape(result.loss)}"),
@@ -123,14 +127,26 @@ def _warnings(result) -> str:
     return "<ul>" + "".join(f"<li class=\"warn\">{html.escape(w)}</li>" for w in warnings) + "</ul>"
 
 
-def _listing(data, lines=None) -> str:
-    """The residual listing: per observation, its file line, the readings, the
-    residual components and on-sky distance, and whether it was used."""
+_AZIMUTH_WORDS = {"N-E": "from North through East", "S-E": "from South through East", "S-W": "from South through West"}
+
+
+def _listing(data, lines=None, raw=None) -> str:
+    """The residual listing: per observation, its file line, the raw axis readings,
+    the residual components and on-sky distance, and whether it was used.
+
+    ``raw``: ``(n, 2)`` the raw (encoder) readings in degrees as the file gives them
+    (default: the mount's nominal axis angles of the readings, azimuth wrapped to
+    0-360, which the header then says)."""
     a1, a2 = data.axis_names
     r1, r2 = data.symbols
+    angles = data.axis_angles if raw is None else np.asarray(raw, float)
+    where = ""
+    if data.mount == "AltAzMount":
+        counted = _AZIMUTH_WORDS.get(data.convention, data.convention or "")
+        where = f", raw encoder, counted {counted}" + (", wrapped to 0-360" if raw is None else ", as in the file")
     head = (
         "<table><tr><th>#</th>" + ("<th>line</th>" if lines is not None else "")
-        + f"<th>{html.escape(a1)} (deg)</th><th>{html.escape(a2)} (deg)</th>"
+        + f"<th>{html.escape(a1)} (deg{html.escape(where)})</th><th>{html.escape(a2)} (deg{', raw encoder' if where else ''})</th>"
         f"<th>{html.escape(r1)} ({data.unit})</th><th>{html.escape(r2)} ({data.unit})</th>"
         f"<th>distance ({data.unit})</th><th class=\"name\">status</th></tr>"
     )
@@ -139,8 +155,8 @@ def _listing(data, lines=None) -> str:
         status = "masked" if data.masked[i] else ("outlier" if data.outlier[i] else "used")
         line = f"<td>{int(lines[i])}</td>" if lines is not None else ""
         rows.append(
-            f"<tr class=\"{status}\"><td>{i + 1}</td>{line}<td>{_number(data.axis_angles[i, 0], '.4f')}</td>"
-            f"<td>{_number(data.axis_angles[i, 1], '.4f')}</td><td>{_number(data.residuals[i, 0], '+.3f')}</td>"
+            f"<tr class=\"{status}\"><td>{i + 1}</td>{line}<td>{_number(angles[i, 0], '.4f')}</td>"
+            f"<td>{_number(angles[i, 1], '.4f')}</td><td>{_number(data.residuals[i, 0], '+.3f')}</td>"
             f"<td>{_number(data.residuals[i, 1], '+.3f')}</td><td>{_number(data.distance[i], '.3f')}</td>"
             f"<td class=\"name\">{status}</td></tr>"
         )
@@ -191,7 +207,12 @@ def fit_report(
     lines = getattr(run, "lines", None)
     if lines is not None and len(lines) != len(data):
         lines = None
-    body += ["<h2>Residuals (observed minus model)</h2>", _listing(data, lines)]
+    raw = getattr(run, "encoder", None)
+    if raw is not None and data.mount == "AltAzMount" and np.shape(raw) == (len(data), 2):
+        raw = np.degrees(np.asarray(raw, float))  # the file's own numbers, not wrapped
+    else:
+        raw = None
+    body += ["<h2>Residuals (observed minus model; rows counted from 1)</h2>", _listing(data, lines, raw)]
     return _page(title, body)
 
 

@@ -73,8 +73,11 @@ def test_fit_far_from_the_zeros_is_wrapped_and_flagged():
     assert abs(values["omega0"]) > px.deg(170)
     assert any("outside the expected range: omega0" in w for w in result.warnings())
     assert "outside the expected range" in result.report()
-    # Same residuals as the unwrapped values (periodicity), to rounding.
-    unwrapped = result.model.set(alpha0=values["alpha0"] + 4 * np.pi)
+    # Same residuals as the unwrapped values (periodicity), to rounding. A bare number
+    # beyond a turn is refused as likely degrees; a stated unit is trusted.
+    import astropy.units as u
+
+    unwrapped = result.model.set(alpha0=(values["alpha0"] + 4 * np.pi) * u.rad)
     np.testing.assert_allclose(np.asarray(px.residuals(unwrapped, obs)), np.asarray(result.residuals), atol=1e-12)
 
 

@@ -77,7 +77,14 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         "'=' (fixed) flags; with --terms, --terms chooses the terms and the file gives the start values and "
         "flags of those it holds (the others start at 0). TPOINT runs and offsets tables",
     )
-    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="term form (default: linear, as TPOINT)")
+    p.add_argument(
+        "--form",
+        choices=sorted(choices.TERM_FORMS),
+        default="linear",
+        help="how the TPOINT terms are applied: linear (default: TPOINT's formulas as first-order offsets at the sky "
+        "position) or rigorous (exact rotations and encoder corrections, as TPOINT applies its model: nearer TPOINT's "
+        "fitted values where the corrections are large)",
+    )
     p.add_argument(
         "--fix",
         default="",
@@ -501,13 +508,9 @@ def _fit(args) -> int:
 
         format_of(args.plot)  # an unknown extension fails before the fit is printed
     if args.write_model:
-        from ..io.tpoint_model import refraction_arcsec, write_model
+        from ..io.tpoint_model import write_model
 
-        write_model(
-            args.write_model, result, refraction=refraction_arcsec(outcome.run), layout=args.model_layout
-        )
-    if args.plot:
-        _plot(args.plot, outcome)
+        write_model(args.write_model, result, layout=args.model_layout, run=outcome.run)
     if args.json:
         from ..listing import observation_entries
 
@@ -518,7 +521,8 @@ def _fit(args) -> int:
             "residuals": args.residuals,
             "start_model": args.model,
             **result.to_dict(),
-            "masked": [int(i) for i in outcome.masked.nonzero()[0]],
+            "masked": [int(i) for i in outcome.masked.nonzero()[0]],  # 0-based indices
+            "masked_rows": [int(i) + 1 for i in outcome.masked.nonzero()[0]],  # 1-based, as --mask and the report
             "observations": observation_entries(outcome.run, result, outcome.masked),
         }
         print(json.dumps(out, indent=2))
@@ -529,6 +533,14 @@ def _fit(args) -> int:
 
             print()
             print(format_listing(outcome.run, result, outcome.masked))
+    if args.plot:
+        # After the report, so that a missing matplotlib does not lose the fit.
+        try:
+            _plot(args.plot, outcome)
+        except ImportError as err:
+            if "matplotlib" not in str(err):
+                raise
+            return error(_PREFIX, "--plot needs matplotlib, an optional extra: pip install 'pointax[plot]'")
     return 0 if bool(result.converged) else 1
 
 

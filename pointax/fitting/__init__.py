@@ -53,6 +53,7 @@ _EXPORTS = {
     "robust_sigma": "statistics",
     "statistics": "statistics",
     "svd_unit_covariance": "statistics",
+    "leave_one_out": "statistics",
     "embed": "structure",
 }
 
@@ -79,6 +80,7 @@ __all__ = [
     "fit_model",
     "free_mask",
     "least_squares",
+    "leave_one_out",
     "normalised_weights",
     "options_from",
     "prepare",

@@ -206,7 +206,8 @@ class LinearisedStep(NamedTuple):
     residuals: Float[Array, "n 2"]
     """Residuals at the new values (unweighted, every observation)."""
     statistics: Statistics
-    """TPOINT's statistics: residuals at the new values, ``(J^T J)^-1`` at the old."""
+    """TPOINT's statistics: residuals at the new values, ``(J^T J)^-1`` at the old; the
+    leave-one-out figures from the hat matrix of the same Jacobian."""
     degenerate: Bool[Array, " m"]
     finite: Bool[Array, ""]
     """The new values and their used residuals are finite."""
@@ -237,7 +238,9 @@ def gauss_newton_step(
     fitted = model.with_values(y)
     r = problem.residuals(fitted)  # outliers keep their residuals; statistics skip them
     rw = r * sqrt_w
-    stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate)
+    # Leave-one-out from the hat matrix of this linearisation (no refit).
+    masked_jac = jnp.where(free, jac, 0.0)
+    stats = statistics(rw, used, jnp.sum(free), unit_cov, degenerate, jac=masked_jac, residuals=r)
     finite = jnp.all(jnp.isfinite(rw)) & jnp.all(jnp.isfinite(y))
     return LinearisedStep(fitted, y, change, r, stats, degenerate, finite, step_finite)
 
@@ -296,7 +299,7 @@ def result_structure(model: Model, free, obs: Observations, options: FitOptions)
     x = np.zeros(())
     template = FitResult(
         model=model, values=x, sigmas=x, covariance=x, correlation=x, residuals=x, used=x, n_obs=x, sky_rms=x,
-        popn_sd=x, iterations=x, converged=x, status=x, degenerate=x, outliers=x,
+        popn_sd=x, loo_residuals=x, loo_rms=x, iterations=x, converged=x, status=x, degenerate=x, outliers=x,
         robust_scale=x, robust_converged=x, names=tuple(p.name for p in params), units=tuple(p.unit for p in params),
         solver=options.solver, loss=options.loss, reject=options.reject if LOSSES[options.loss] is not None else 0.0,
     )  # fmt: skip
@@ -331,6 +334,8 @@ def restrict(full: FitResult, index, model: Model, caption: str = "", numpy=None
         n_obs=full.n_obs,
         sky_rms=full.sky_rms,
         popn_sd=full.popn_sd,
+        loo_residuals=full.loo_residuals,
+        loo_rms=full.loo_rms,
         iterations=full.iterations,
         converged=full.converged,
         status=full.status,
@@ -361,6 +366,7 @@ def result_from_covariance(
     converged: Bool[Array, ""],
     solver: str,
     scale: Float[Array, ""] | None = None,
+    jac: Float[Array, "k m"] | None = None,
 ) -> FitResult:
     """A least-squares :class:`FitResult` with TPOINT's statistics from ``(J^T J)^-1``
     (the batched fast path's Cholesky factor, the shared-parameter fit's Schur
@@ -373,9 +379,11 @@ def result_from_covariance(
             the normalised weights (0 for unused observations).
         scale: the standard deviation the covariance is scaled by (default: this fit's
             Sky RMS, as TPOINT's sigmas).
+        jac: ``(2n, m)`` Jacobian of ``weighted`` (row by row), for the leave-one-out
+            figures; without it they are NaN.
     """
     m = len(fitted.free_parameters)
-    stats = statistics(weighted, used, m, unit_covariance, None, scale)
+    stats = statistics(weighted, used, m, unit_covariance, None, scale, jac=jac, residuals=residuals)
     ok = converged & jnp.all(jnp.isfinite(values)) & jnp.isfinite(stats.sky_rms)
     return fit_result(
         fitted,

@@ -20,7 +20,21 @@ import numpy as np
 from ..model import ParameterInfo
 from ..units import UNITS
 
-__all__ = ["wrap_periodic", "out_of_range", "range_warning"]
+__all__ = ["wrap_periodic", "out_of_range", "range_warning", "TWINS", "twin_note"]
+
+TWINS: dict[str, tuple[tuple[tuple[str, str, float], ...], ...]] = {
+    "TurntableMount": (
+        (("beta0", "+", np.pi),),
+        (("alpha0", "+", np.pi), ("beta0", "-", np.pi), ("omega0", "pi-", 0.0)),
+    ),
+}
+"""Mount class name -> its exact twins: other parameter values that give the same
+residuals, each a tuple of ``(name, how, amount)`` with ``how`` '+' (add ``amount``),
+'-' (subtract) or 'pi-' (``pi - value``). The sun-vector turntable's normal is fitted
+as a line (the pitch zero ``beta0`` and ``beta0 + 180 deg`` give the same residuals),
+and ``alpha0 + 180 deg, beta0 - 180 deg, omega0 -> 180 deg - omega0`` is the same
+turntable turned over (:data:`pointax.terms.sun_vector.SMALL_ANGLE`). Checked by
+``tests/test_fit_outputs.py`` on the paper's Table 1."""
 
 def wrap_periodic(result):
     """``result`` (a :class:`pointax.FitResult`) with each periodic parameter brought into ``[0, period)``
@@ -38,6 +52,40 @@ def wrap_periodic(result):
     values = jax.device_put(values)
     model = result.model.replace_parameters(params, [values[..., k] for k in range(len(params))])
     return eqx.tree_at(lambda r: (r.values, r.model), result, (values, model))
+
+
+def twin_note(model, values, params: tuple[ParameterInfo, ...]) -> str:
+    """One sentence naming the equivalent solutions of a fit whose mount declares twins
+    (:data:`TWINS`) and holds all their parameters free ('' otherwise): the values
+    reported are one of several that fit the data exactly as well."""
+    twins = TWINS.get(type(getattr(model, "mount", None)).__name__)
+    if not twins:
+        return ""
+    values = np.asarray(values, np.float64)
+    if values.ndim != 1:
+        return ""
+    index = {p.name: k for k, p in enumerate(params)}
+    parts = []
+    for twin in twins:
+        if not all(name in index for name, _, _ in twin):
+            continue
+        shown = []
+        for name, how, amount in twin:
+            p = params[index[name]]
+            v = values[index[name]]
+            v = v + amount if how == "+" else (v - amount if how == "-" else np.pi - v)
+            if p.period is not None:
+                v = v - p.period * np.floor(v / p.period)
+            scale = UNITS.get(p.unit, 1.0)
+            shown.append(f"{name} = {v / scale:.4f} {p.unit}")
+        parts.append(", ".join(shown))
+    if not parts:
+        return ""
+    return (
+        "an equivalent solution exists (the same residuals, another branch of the model): "
+        + "; or ".join(parts)
+        + " (the values above are one of them; start near the one you want, e.g. pointax.Turntable(start=observations))"
+    )
 
 
 def out_of_range(values, params: tuple[ParameterInfo, ...]) -> list[int]:

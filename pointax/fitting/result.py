@@ -24,6 +24,11 @@ ABSURD_SKY_RMS_DEG = 1.0
 telescopes fit to arcseconds, sun trackers and heliostats to a few mrad (0.1 deg)."""
 
 
+STANDOUT_SIGMAS = 5.0
+""":meth:`FitResult.standout_rows`: a residual beyond this many robust standard
+deviations stands out of the rest."""
+
+
 SUCCESSFUL = 0
 """:attr:`FitResult.status` of a solver that met its tolerances (optimistix's
 ``RESULTS.successful``)."""
@@ -80,6 +85,14 @@ class FitResult(eqx.Module):
         used: ``(N,)`` which observations were used (weight > 0).
         n_obs: number of observations used.
         sky_rms, popn_sd: TPOINT's Sky RMS and population standard deviation, radians.
+        loo_residuals: ``(N, 2)`` leave-one-out residuals, radians: for a used star the
+            residual it has in the fit without it, both components left out together,
+            from the hat matrix of the weighted linearised problem at the solution
+            (``e_i = (I - H_ii)^-1 r_i``, no refit: exact for the linear problem,
+            :func:`pointax.fitting.statistics.leave_one_out`); for a star not used its
+            residual. NaN where the fit gives no Jacobian (batched fast path).
+        loo_rms: leave-one-out RMS over the used stars, radians (weighted as the Sky
+            RMS): the out-of-sample figure beside Sky RMS and Popn SD.
         iterations: solver steps taken.
         converged: whether the solver met its tolerances with finite residuals.
         status: optimistix's result code, an integer (:data:`SUCCESSFUL`: met its
@@ -109,6 +122,8 @@ class FitResult(eqx.Module):
     n_obs: Int[Array, ""]
     sky_rms: Float[Array, ""]
     popn_sd: Float[Array, ""]
+    loo_residuals: Float[Array, "n 2"]
+    loo_rms: Float[Array, ""]
     iterations: Int[Array, ""]
     converged: Bool[Array, ""]
     status: Int[Array, ""]
@@ -231,21 +246,78 @@ class FitResult(eqx.Module):
         outside = range_warning(np.asarray(self.values), self.model.free_parameters)
         if outside:
             out.append(outside)
+
         n, m = int(self.n_obs), len(self.names)
         if n <= m:
             out.append(f"only {n} observations for {m} parameters: Popn SD is undefined")
         return out
 
+    def standout_rows(self, sigmas: float = STANDOUT_SIGMAS) -> list[int]:
+        """0-based indices of the used observations whose residual stands out of the rest
+        by a robust (median-based) look: an on-sky residual above ``sigmas`` robust
+        standard deviations (the median residual norm over its Gaussian expectation,
+        :func:`pointax.fitting.statistics.robust_sigma`), and above the Sky RMS.
+        Empty when more than a fifth of the rows would stand out, or when the median
+        residual itself exceeds :data:`ABSURD_SKY_RMS_DEG` (then the data as a whole
+        are off, not a few rows)."""
+        r = np.asarray(self.residuals, np.float64)
+        used = np.asarray(self.used, bool)
+        if r.ndim != 2 or not used.any():
+            return []
+        norm = np.hypot(r[:, 0], r[:, 1])
+        finite = used & np.isfinite(norm)
+        if not finite.any():
+            return []
+        from .statistics import RAYLEIGH_MEDIAN
+
+        median = float(np.median(norm[finite]))
+        if median > ABSURD_SKY_RMS_DEG * UNITS["deg"]:
+            return []  # the typical residual is absurd: the data as a whole are off
+        sigma = median / RAYLEIGH_MEDIAN
+        out = np.flatnonzero(finite & (norm > sigmas * sigma) & (norm > float(self.sky_rms)))
+        if len(out) > max(1, int(finite.sum()) // 5):
+            return []
+        return [int(i) for i in out[np.argsort(-norm[out])]]
+
     def absurd_fit(self) -> str:
-        """A warning when the Sky RMS after the fit exceeds :data:`ABSURD_SKY_RMS_DEG`
-        (no pointing model leaves residuals that large: the data are in the wrong
-        unit, convention or columns), else ''."""
+        """A warning when the Sky RMS after the fit, or the residual of a row that stands
+        out, exceeds :data:`ABSURD_SKY_RMS_DEG` (no pointing model leaves residuals
+        that large), else ''. It names the rows
+        that stand out in a robust look (:meth:`standout_rows`: a corrupt or mistyped
+        record drags a least-squares fit), and otherwise the likely cause of the data
+        as a whole being off (unit, convention, columns)."""
         rms = float(self.sky_rms)
-        if not math.isfinite(rms) or rms <= ABSURD_SKY_RMS_DEG * UNITS["deg"]:
+        if not math.isfinite(rms):
             return ""
+        limit = ABSURD_SKY_RMS_DEG * UNITS["deg"]
+        r = np.asarray(self.residuals, np.float64)
+        norm = np.hypot(r[:, 0], r[:, 1]) if r.ndim == 2 else np.zeros(0)
+        if rms <= limit:
+            # A sane Sky RMS may still hide a record whose residual alone is absurd.
+            rows = [i for i in self.standout_rows() if norm[i] > limit]
+            if not rows:
+                return ""
+            head = f"Sky RMS {rms / ARCSEC:.6g}\" after the fit, but some residuals are absurd (more than {ABSURD_SKY_RMS_DEG:g} deg)"
+        else:
+            head = (
+                f"Sky RMS {rms / ARCSEC:.6g}\" ({rms / UNITS['deg']:.4g} deg) after the fit is absurd for a pointing "
+                f"model (more than {ABSURD_SKY_RMS_DEG:g} deg)"
+            )
+            rows = self.standout_rows()
+        if rows:
+            used = np.asarray(self.used, bool)
+            rest = float(np.median(norm[used & ~np.isin(np.arange(len(norm)), rows)])) if used.sum() > len(rows) else 0.0
+            shown = ", ".join(f"{i + 1} ({norm[i] / UNITS['deg']:.3g} deg)" for i in rows[:10])
+            more = f" and {len(rows) - 10} more" if len(rows) > 10 else ""
+            listed = ",".join(str(i + 1) for i in rows)
+            return (
+                f"{head}: observation{'s' if len(rows) > 1 else ''} {shown}{more} (rows counted from 1) stand"
+                f"{'' if len(rows) > 1 else 's'} out of the rest (median residual {rest / ARCSEC:.3g}\"), probably "
+                f"bad records (a corrupt or mistyped line) that drag the fit: check them, leave them out "
+                f"(pointax fit --mask {listed}; weights 0) or fit robustly (loss='cauchy', --loss cauchy)"
+            )
         return (
-            f"Sky RMS {rms / ARCSEC:.6g}\" ({rms / UNITS['deg']:.4g} deg) after the fit is absurd for a pointing "
-            f"model (more than {ABSURD_SKY_RMS_DEG:g} deg): the likely cause is angles in the wrong unit (radians "
+            f"{head}: no few rows stand out, so the likely cause is angles in the wrong unit (radians "
             "read as degrees, or degrees given where radians are expected), a wrong azimuth convention, or "
             "columns in the wrong order"
         )
@@ -288,14 +360,28 @@ class FitResult(eqx.Module):
         lines.append(f"Sky RMS = {float(self.sky_rms) / UNITS[unit]:9.4f}{label}")
         popn = float(self.popn_sd) / UNITS[unit]
         lines.append(f"Popn SD = {popn:9.4f}{label}" if math.isfinite(popn) else "Popn SD =   undefined")
+        loo = float(self.loo_rms) / UNITS[unit]
+        if not math.isnan(loo):
+            # Leave-one-out from the hat matrix of the linearised fit: no refits.
+            value = f"{loo:9.4f}{label}" if math.isfinite(loo) else "  undefined (a star alone fixes a parameter)"
+            lines.append(f"LOO RMS = {value}  (leave-one-out, each star out of the fit in turn)")
         warnings = self.warnings()
-        if warnings:
+        from .ranges import twin_note  # ranges builds on this module
+
+        twin = twin_note(self.model, np.asarray(self.values), self.model.free_parameters)
+        if warnings or twin:
             lines.append("")
-            lines.extend(f"WARNING: {w}" for w in warnings)
+        lines.extend(f"WARNING: {w}" for w in warnings)
+        if twin:
+            lines.append(f"NOTE: {twin}")
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary; the keys are stable (see ``pointax fit --json``)."""
+        """JSON-ready summary; the keys are stable (see ``pointax fit --json``).
+
+        Observations are named two ways: ``outliers`` holds 0-based indices (into
+        ``residuals``, Python's), ``outlier_rows`` the same observations as 1-based row
+        numbers in file order, as the report, the listing and TPOINT count them."""
 
         def number(x):
             x = float(x)
@@ -306,6 +392,7 @@ class FitResult(eqx.Module):
             "n_obs": int(self.n_obs),
             "sky_rms_arcsec": number(float(self.sky_rms) / ARCSEC),
             "popn_sd_arcsec": number(float(self.popn_sd) / ARCSEC),
+            "loo_rms_arcsec": number(float(self.loo_rms) / ARCSEC),
             "converged": bool(self.converged),
             "iterations": int(self.iterations),
             "message": self.message,
@@ -328,6 +415,7 @@ class FitResult(eqx.Module):
             },
             "correlation": [[number(c) for c in row] for row in corr],
             "loss": self.loss,
-            "outliers": self.outlier_indices(),
+            "outliers": self.outlier_indices(),  # 0-based indices (Python's)
+            "outlier_rows": [i + 1 for i in self.outlier_indices()],  # 1-based rows, as the report and TPOINT count
             "warnings": self.warnings(),
         }

@@ -7,6 +7,16 @@ parameters (DESIGN.md, checked against real TPOINT output)::
     Sky RMS = sqrt( sum_i |r_i|^2 / N )
     Popn SD = Sky RMS * sqrt( N / (N - M) )        (undefined, inf, when N <= M)
     sigma_j = Sky RMS * sqrt( [(J^T J)^-1]_jj )    J: d r / d parameters
+    LOO RMS = sqrt( sum_i |e_i|^2 / N ),  e_i = (I - H_ii)^-1 r_i      (leave-one-out)
+
+``H = J (J^T J)^-1 J^T`` is the hat matrix of the weighted linearised problem at the
+solution and ``H_ii`` its 2x2 block of star ``i`` (both its residual components): ``e_i``
+is exactly the residual star ``i`` would have in the fit of the linearised problem with
+that star left out (the leave-one-out identity for a block of rows), so the
+out-of-sample figure costs no refit. It is exact for residuals affine in the
+parameters (TPOINT's residual form with TPOINT-form terms) and equal to refits to the
+linearisation error otherwise. A star the fit did not use (weight 0, masked or
+rejected) is already left out: its leave-one-out residual is its residual.
 
 :func:`statistics` takes ``(J^T J)^-1`` however a fit obtained it: from the Jacobian's
 SVD (:func:`svd_unit_covariance`, the solo fit, which also finds parameters the data
@@ -26,6 +36,7 @@ __all__ = [
     "Statistics",
     "statistics",
     "svd_unit_covariance",
+    "leave_one_out",
     "robust_sigma",
     "normalised_weights",
     "DEGENERATE_RCOND",
@@ -49,6 +60,8 @@ class Statistics(NamedTuple):
     covariance: Array
     sigmas: Array
     correlation: Array
+    loo_residuals: Array
+    loo_rms: Array
 
 
 def normalised_weights(weight: Float[Array, " n"], used: Bool[Array, " n"]) -> Float[Array, " n"]:
@@ -64,6 +77,8 @@ def statistics(
     unit_covariance: Float[Array, "m m"],
     degenerate: Bool[Array, " m"] | None = None,
     scale: Float[Array, ""] | None = None,
+    jac: Float[Array, "k m"] | None = None,
+    residuals: Float[Array, "n 2"] | None = None,
 ) -> Statistics:
     """TPOINT's statistics of a fit (pure JAX; ``vmap`` over sites).
 
@@ -77,6 +92,12 @@ def statistics(
             their correlations NaN (default: none).
         scale: the standard deviation the covariance is scaled by (default: this fit's
             Sky RMS, as TPOINT's sigmas).
+        jac: ``(2n, m)`` Jacobian of ``weighted`` (flattened row by row: star ``i``'s
+            rows are ``2i`` and ``2i + 1``) at the solution, columns of fixed
+            parameters zero, for the leave-one-out figures (:func:`leave_one_out`);
+            without it they are NaN.
+        residuals: ``(n, 2)`` unweighted residuals (default: ``weighted``), for the
+            leave-one-out residuals of the stars not used.
     """
     n_obs = jnp.sum(used)
     sky_rms = jnp.sqrt(jnp.sum(weighted**2) / n_obs)
@@ -88,7 +109,64 @@ def statistics(
     safe = jnp.where(degenerate | (sigmas == 0), 1.0, sigmas)
     corr = cov / (safe[:, None] * safe[None, :])
     corr = jnp.where(degenerate[:, None] | degenerate[None, :], jnp.nan, corr)
-    return Statistics(n_obs, sky_rms, popn_sd, cov, sigmas, corr)
+    if jac is None:
+        loo = jnp.full(weighted.shape, jnp.nan)
+        loo_rms = jnp.asarray(jnp.nan, weighted.dtype)
+    else:
+        loo, loo_rms = leave_one_out(weighted, used, jac, unit_covariance, residuals)
+    return Statistics(n_obs, sky_rms, popn_sd, cov, sigmas, corr, loo, loo_rms)
+
+
+def leave_one_out(
+    weighted: Float[Array, "n 2"],
+    used: Bool[Array, " n"],
+    jac: Float[Array, "k m"],
+    unit_covariance: Float[Array, "m m"],
+    residuals: Float[Array, "n 2"] | None = None,
+) -> tuple[Float[Array, "n 2"], Float[Array, ""]]:
+    """Leave-one-out residuals and their RMS from the hat matrix, with no refit.
+
+    For each used star ``i``, ``e_i = (I - H_ii)^-1 r_i`` with ``r_i`` its two weighted
+    residuals and ``H_ii = J_i (J^T J)^-1 J_i^T`` its 2x2 block of the hat matrix: the
+    residual star ``i`` has in the least-squares fit of the linearised problem without
+    it (both components left out together). The RMS is over the used stars, as the
+    Sky RMS: ``sqrt(sum_i |e_i|^2 / N)``. A star that alone fixes a parameter
+    (``I - H_ii`` singular) makes it infinite.
+
+    Args:
+        weighted: ``(n, 2)`` residuals times the square roots of the normalised weights.
+        used: ``(n,)`` the stars the fit used.
+        jac: ``(2n, m)`` Jacobian of ``weighted`` flattened row by row; columns of fixed
+            parameters zero.
+        unit_covariance: ``(J^T J)^-1`` (a pseudo-inverse where parameters are degenerate).
+        residuals: ``(n, 2)`` unweighted residuals: the leave-one-out residuals of the
+            stars not used (default: ``weighted``, 0 there).
+
+    Returns:
+        ``(n, 2)`` leave-one-out residuals, unweighted (radians), and their weighted RMS.
+    """
+    n = weighted.shape[0]
+    if n == 0:
+        return jnp.zeros((0, 2)), jnp.asarray(jnp.nan)
+    rows = jac.reshape(n, 2, -1)
+    block = jnp.einsum("nam,mk,nbk->nab", rows, unit_covariance, rows)  # H_ii, (n, 2, 2)
+    a, b = 1.0 - block[:, 0, 0], -block[:, 0, 1]
+    c, d = -block[:, 1, 0], 1.0 - block[:, 1, 1]
+    det = a * d - b * c
+    x, y = weighted[:, 0], weighted[:, 1]
+    singular = det <= 1e-12
+    inv_det = 1.0 / jnp.where(singular, 1.0, det)
+    e = jnp.stack([(d * x - b * y) * inv_det, (a * y - c * x) * inv_det], axis=-1)
+    e = jnp.where(singular[:, None] & (jnp.abs(weighted) > 0), jnp.inf, jnp.where(singular[:, None], 0.0, e))
+    e = jnp.where(used[:, None], e, 0.0)
+    n_obs = jnp.sum(used)
+    loo_rms = jnp.sqrt(jnp.sum(e**2) / n_obs)
+    # Unweighted: e_i / sqrt(w_i) (the weighted residual over the plain one).
+    plain = weighted if residuals is None else residuals
+    scale = jnp.sqrt(jnp.sum(weighted**2, axis=-1) / jnp.maximum(jnp.sum(plain**2, axis=-1), 1e-300))
+    unweighted = jnp.where((scale > 0)[:, None], e / jnp.where(scale > 0, scale, 1.0)[:, None], e)
+    loo = jnp.where(used[:, None], unweighted, plain)
+    return loo, loo_rms
 
 
 def svd_unit_covariance(

@@ -26,13 +26,16 @@ __all__ = [
 
 
 def title_of(result, extra: str = "") -> str:
-    """A figure title: the run's caption, N used and the Sky RMS."""
+    """A figure title: the run's caption, N used and the Sky RMS; for a fit that did
+    not converge, 'NOT CONVERGED' first (its residuals are not those of a solution)."""
     from .data import UNIT_SCALE, residual_unit
 
     unit = residual_unit(result)
     caption = getattr(result, "caption", "") or ""
     rms = float(np.asarray(result.sky_rms)) / UNIT_SCALE[unit]
-    parts = [p for p in (caption.strip(), extra) if p]
+    converged = getattr(result, "converged", True)
+    failed = np.ndim(converged) == 0 and not bool(np.asarray(converged))
+    parts = [p for p in ("FIT NOT CONVERGED" if failed else "", caption.strip(), extra) if p]
     parts.append(f"N = {int(np.asarray(result.n_obs))}, Sky RMS = {rms:.3f} {unit}")
     return " - ".join(parts)
 

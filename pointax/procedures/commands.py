@@ -26,13 +26,13 @@ __all__ = ["COMMAND_FUNCTIONS", "LIGHT_COMMANDS", "DEFAULT_FAUTO_CANDIDATES", "E
 DEFAULT_FAUTO_CANDIDATES = tuple(
     f"H{what}{fn}{arg}{k}" for what in "AES" for fn in "SC" for arg in "AE" for k in (1, 2, 3)
 )
-"""FAUTO's candidates when none are named, alt-az runs: TPOINT harmonics of A, E and S
+"""FAUTO CV's candidates when none are named, alt-az runs: TPOINT harmonics of A, E and S
 (cross-elevation) in sin and cos of azimuth and elevation, multipliers 1 to 3 (36 terms)."""
 
 EQUATORIAL_FAUTO_CANDIDATES = tuple(
     f"H{what}{fn}{arg}{k}" for what in "HDX" for fn in "SC" for arg in "HD" for k in (1, 2, 3)
 )
-"""FAUTO's candidates when none are named, equatorial runs: harmonics of H, D and X
+"""FAUTO CV's candidates when none are named, equatorial runs: harmonics of H, D and X
 (cross-declination) in sin and cos of hour angle and declination, multipliers 1 to 3."""
 
 
@@ -71,6 +71,7 @@ def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
         raise ValueError("INMOD needs one file name")
     path = line.path(args[0])
     mod = read_model(path)
+    mod.check_terms(form=s.form, **s.term_options())  # unknown or other-mount terms: file and line
     names = [t.name.upper() for t in mod.terms]
     _check_terms(s, names)
     s.terms = names
@@ -199,6 +200,9 @@ def fit_table(result, changes) -> str:
     popn = float(result.popn_sd) / ARCSEC
     lines += ["", f"Sky RMS = {float(result.sky_rms) / ARCSEC:9.4f}"]
     lines.append(f"Popn SD = {popn:9.4f}" if math.isfinite(popn) else "Popn SD =   undefined")
+    loo = float(getattr(result, "loo_rms", math.nan)) / ARCSEC
+    if not math.isnan(loo):
+        lines.append(f"LOO RMS = {loo:9.4f}" if math.isfinite(loo) else "LOO RMS =   undefined")
     lines += [f"WARNING: {w}" for w in result.warnings() if "did not converge" not in w]
     return "\n".join(lines)
 
@@ -284,24 +288,63 @@ def cmd_unmask(s: Session, args: list[str], line: Line) -> None:
     s.say(f"UNMASK: {int(s.masked.sum())} masked, {int((~s.masked).sum())} in use")
 
 
-def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
-    """FAUTO [NAME ...]: automatic model building from the current model
-    (:func:`pointax.build_model`) over the named candidate terms (default
-    :data:`DEFAULT_FAUTO_CANDIDATES`, :data:`EQUATORIAL_FAUTO_CANDIDATES` for an equatorial
-    run), on the unmasked observations; the model becomes
-    the one it built (FIT then refines it)."""
+def _fauto_start(s: Session):
+    """FAUTO's start model: the terms in use, then the mount's basic physical terms not
+    in use (:data:`pointax.analysis.fauto.FAUTO_PHYSICAL`), at their current values."""
+    from ..analysis.fauto import FAUTO_PHYSICAL
+    from ..terms import tpoint
+
+    run = s.require_run()
+    kind = "equatorial" if run.mount == "equatorial" else "altaz"
+    names = list(s.terms) + [n for n in FAUTO_PHYSICAL[kind][0] if n not in s.terms]
+    values = {n: s.values.get(n, 0.0) for n in names}
+    terms = tpoint(names, form=s.form, values=values, **s.term_options())
+    return run.model(terms, fixed=sorted(s.fixed), residual_form=s.residual_form)
+
+
+def _fauto_cv(s: Session, names: list[str], rows: np.ndarray) -> None:
+    """FAUTO CV: the cross-validated builder (:func:`pointax.build_model`) from the current model."""
     from ..analysis.model_building import build_model
     from ..terms import tpoint
 
     run = s.require_run()
     default = EQUATORIAL_FAUTO_CANDIDATES if run.mount == "equatorial" else DEFAULT_FAUTO_CANDIDATES
-    names = _names(args, "FAUTO") if args else [n for n in default if n not in s.terms]
+    names = names or [n for n in default if n not in s.terms]
+    if not s.terms:
+        raise ValueError("FAUTO CV builds from the current model: USE or INMOD terms first")
     candidates = tpoint(names, form=s.form, **s.term_options())
-    keep = s.observations().weight > 0
-    build = build_model(candidates, run.observations[np.flatnonzero(keep)], start=s.model())
+    build = build_model(candidates, run.observations[rows], start=s.model())
     s.say(build.report())
     s.terms = [t.name.upper() for t in build.model.terms]
     s.values = {n: float(build.model.get(n)) for n in s.terms}
+
+
+def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
+    """FAUTO [NAME ...]: TPOINT-style automatic model building (:func:`pointax.analysis.fauto`):
+    from the terms in use and the mount's basic physical terms, try the further physical
+    terms, then harmonics to order 3 (or only the named candidates), keeping those with
+    |value/sigma| >= 2 that lower Popn SD and mimic no term in the model; prints the steps,
+    weak outlier candidates and pairs not reliably distinguished, on the unmasked stars.
+    FAUTO CV [NAME ...]: the cross-validated builder (:func:`pointax.build_model`) instead."""
+    from ..analysis.fauto import fauto
+
+    run = s.require_run()
+    rows = np.flatnonzero(s.observations().weight > 0)
+    words = [str(a).upper() for a in args]
+    if words[:1] == ["CV"]:
+        _fauto_cv(s, _names(args[1:], "FAUTO CV") if len(args) > 1 else [], rows)
+    else:
+        named = _names(args, "FAUTO") if args else None
+        if named:
+            _check_terms(s, named)
+        start = _fauto_start(s)
+        chosen = None if named is None else [n for n in named if n not in {t.name for t in start.terms}]
+        result = fauto(s.observations(), start=start, harmonics=chosen,
+                       further=() if named is not None else None, form=s.form)
+        s.say(result.report())
+        s.say("(& marks the terms FAUTO added)")
+        s.terms = [t.name.upper() for t in result.model.terms]
+        s.values = {n: float(result.model.get(n)) for n in s.terms}
     s.fixed &= set(s.terms)
     s.stale = True
 
@@ -316,7 +359,9 @@ def cmd_show(s: Session, args: list[str], line: Line) -> None:
             from ..masking import format_rows
 
             s.say(f"masked: {format_rows(np.flatnonzero(s.masked))}")
-    s.say(f"mount: {s.mount}, azimuth {s.azimuth}; terms {s.form}, residuals {s.residual_form}")
+    mount = s.mount if s.run is None else s.run.mount  # the run's own mount once read
+    where = f", azimuth {s.azimuth}" if mount != "equatorial" else ""
+    s.say(f"mount: {mount}{where}; terms {s.form}, residuals {s.residual_form}")
     if not s.terms:
         s.say("model: no terms")
     for n in s.terms:
