@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Sequence
 
 import equinox as eqx
@@ -13,7 +14,7 @@ from jaxtyping import Array, ArrayLike, Float
 from ._x64 import float64
 from .mounts import Mount, SphericalMount
 from .terms.base import Term, check_linear_claim, param_fields, param_unit
-from .units import UNITS, is_quantity, value_in_unit
+from .units import TURN, UNITS, check_angle_radians, check_pointing_term, is_quantity, value_in_unit
 
 __all__ = ["Model", "ParameterInfo", "RESIDUAL_FORMS"]
 
@@ -221,6 +222,14 @@ class Model(eqx.Module):
             value_in_unit(v, "1" if info[n].unit == "1" else "rad", f"parameter {n}") if is_quantity(v) else v
             for n, v in values.items()
         ]
+        for (n, v), given in zip(values.items(), converted):
+            if info[n].unit != "1" and not is_quantity(v):  # a bare number: radians assumed, so checked
+                if info[n].unit == "arcsec":  # a pointing term's coefficient: refused beyond a turn
+                    check_pointing_term(given, n)
+                elif info[n].period is not None:  # an angle modulo a turn (alpha0): refused beyond one
+                    check_angle_radians(given, n)
+                else:  # another angle: named beyond a turn
+                    check_angle_radians(given, n, limit=math.inf, warn_above=TURN)
         return self.replace_parameters([info[n] for n in values], converted)
 
     def restructured(self, terms: Iterable[Term] | None = None, fixed: Iterable[str] | None = None) -> "Model":

@@ -8,7 +8,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .errors import warn_input
-from .units import angles_in_radians, check_not_degrees, directions_enu
+from .units import angles_in_radians, check_not_degrees, check_unit_vectors, directions_enu
 
 __all__ = ["Observations", "COUNTED_READINGS"]
 
@@ -47,6 +47,8 @@ class Observations(eqx.Module):
             looks = check_not_degrees("the encoder readings", encoder)
             if looks:
                 warn_input("Observations", None, looks, "encoder", stacklevel=3)
+        if isinstance(target, np.ndarray):  # concrete vectors: az/el in degrees (say) are named here
+            check_unit_vectors(target, "target", weight=weight, stacklevel=3)
         if encoder.ndim != 2 or encoder.shape[-1] != 2:
             raise ValueError(f"encoder must have shape (n, 2), got {encoder.shape}")
         if target.shape != (encoder.shape[0], 3):

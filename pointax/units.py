@@ -21,6 +21,17 @@ import numpy as np
 
 __all__ = [
     "check_not_degrees",
+    "ImplausibleValueError",
+    "TURN",
+    "POINTING_TERM_LIMIT",
+    "SMALLEST_OFFSETS",
+    "likely_unit",
+    "angle_radians_problem",
+    "check_angle_radians",
+    "check_pointing_term",
+    "unit_vectors_problem",
+    "check_unit_vectors",
+    "offsets_scale_problem",
     "ARCSEC",
     "DEG",
     "arcsec",
@@ -172,3 +183,160 @@ def check_not_degrees(
             "(px.deg(x) converts, or pass an astropy Quantity)"
         )
     return None
+
+
+# ------------------------------------------------------------------ plausibility at the edges
+#
+# pointax takes radians (and East-North-Up unit vectors) everywhere inside. Where a
+# value enters (a file, the command line, the Python API) and its unit is assumed
+# rather than stated, the value is checked here for plausibility in that unit: a value
+# that cannot be an angle in radians (beyond a turn) or a pointing term in radians
+# (beyond 10 deg) is named with what was expected and the unit it most likely is in.
+# Readers (:mod:`pointax.io.sanity`) add the file and line; the API raises or warns
+# with the argument's name.
+
+TURN = 2 * math.pi
+"""An angle in radians beyond a full turn cannot be one (it looks like degrees or arcsec)."""
+
+POINTING_TERM_LIMIT = 10 * DEG
+"""The largest plausible pointing-term coefficient, radians (10 deg): a model term far
+beyond it is a unit mistake (arcsec or degrees given where radians are expected)."""
+
+SMALLEST_OFFSETS = 0.1 * ARCSEC
+"""Offsets whose largest magnitude over a run is below this (radians, 0.1") are not
+pointing offsets in the unit assumed: no pointing run measures offsets that small."""
+
+UNIT_VECTOR_TOLERANCE = 1e-3
+"""How far from 1 the length of an East-North-Up unit vector may be."""
+
+
+class ImplausibleValueError(ValueError):
+    """A value whose unit was assumed is implausible in that unit; the message names the
+    value, what was expected and the unit it most likely is in."""
+
+
+def likely_unit(value: float, limit: float) -> str:
+    """Which unit ``value`` (taken as radians, beyond ``limit``) is most likely in: the
+    largest of degrees, arcminutes, arcseconds that brings it within ``limit``."""
+    value = abs(float(value))
+    for word, scale, helper in (
+        ("degrees", DEG, "px.deg(x)"),
+        ("arcminutes", DEG / 60, "px.arcsec(60 * x)"),
+        ("arcseconds", ARCSEC, "px.arcsec(x)"),
+    ):
+        if value * scale <= limit:
+            return f"{word} ({value:g} {word} = {value * scale:.6g} rad; {helper} converts)"
+    return "no angle unit (it is too large even in arcseconds)"
+
+
+def angle_radians_problem(values, name: str, limit: float = TURN, expected: str = "an angle in radians",
+                          plausible: float | None = None) -> str | None:
+    """A message when some finite value of ``values`` (radians assumed) exceeds
+    ``limit`` in magnitude, naming the largest, what was expected and its likely unit
+    (the largest unit that brings it within ``plausible``, default ``limit``);
+    None when all are plausible (or the values are not concrete, e.g. JAX tracers)."""
+    try:
+        array = np.asarray(values, np.float64)
+    except Exception:  # a tracer or an object that is not a number: not checked here
+        return None
+    finite = array[np.isfinite(array)]
+    if finite.size == 0:
+        return None
+    largest = float(finite.flat[int(np.argmax(np.abs(finite)))])
+    if abs(largest) <= limit:
+        return None
+    count = "" if finite.size == 1 else f" ({int(np.sum(np.abs(finite) > limit))} of {finite.size} values)"
+    return (
+        f"{name} = {largest:g}{count}: expected {expected} (within +-{limit:.4g} rad), so it is most likely in "
+        f"{likely_unit(largest, plausible or limit)}; or pass an astropy Quantity"
+    )
+
+
+def check_angle_radians(values, name: str, limit: float = TURN, warn_above: float | None = None,
+                        expected: str = "an angle in radians", stacklevel: int = 3) -> None:
+    """Refuse ``values`` (radians assumed) beyond ``limit`` (:class:`ImplausibleValueError`);
+    warn (:class:`pointax.errors.InputWarning`) beyond ``warn_above``. Values that are
+    not concrete numbers (JAX tracers) are not checked."""
+    problem = angle_radians_problem(values, name, limit, expected, warn_above)
+    if problem:
+        raise ImplausibleValueError(problem)
+    if warn_above is not None:
+        problem = angle_radians_problem(values, name, warn_above, expected)
+        if problem:
+            from .errors import warn_input
+
+            warn_input(name, None, problem, stacklevel=stacklevel + 1)
+
+
+def check_pointing_term(values, name: str, stacklevel: int = 3) -> None:
+    """A pointing-term coefficient (radians): refused beyond a turn, warned of beyond
+    :data:`POINTING_TERM_LIMIT` (both say the likely unit)."""
+    check_angle_radians(values, name, TURN, POINTING_TERM_LIMIT, "a pointing term in radians", stacklevel + 1)
+
+
+def unit_vectors_problem(vectors, name: str, weight=None, tolerance: float = UNIT_VECTOR_TOLERANCE) -> str | None:
+    """A message when some finite row of ``vectors`` ``(..., 3)`` (rows of weight 0
+    skipped) is not of length 1, naming the first and what it looks like; None when all
+    are unit vectors (or the values are not concrete)."""
+    try:
+        array = np.asarray(vectors, np.float64)
+    except Exception:
+        return None
+    if array.ndim == 0 or array.shape[-1] != 3:
+        return None
+    rows = array.reshape(-1, 3)
+    keep = np.all(np.isfinite(rows), axis=1)
+    if weight is not None:
+        try:
+            w = np.broadcast_to(np.asarray(weight, np.float64), array.shape[:-1]).reshape(-1)
+            keep &= w != 0
+        except Exception:
+            pass
+    norms = np.linalg.norm(rows, axis=1)
+    bad = np.flatnonzero(keep & (np.abs(norms - 1.0) > tolerance))
+    if bad.size == 0:
+        return None
+    k = int(bad[0])
+    row = ", ".join(f"{x:g}" for x in rows[k])
+    looks = ""
+    if norms[k] > 2.0:
+        looks = (
+            "; it looks like azimuth/elevation in degrees: give East-North-Up vectors "
+            "(pointax.rotations.azel_to_enu(az, el) in radians, or an (n, 2) astropy Quantity of azimuth and elevation)"
+        )
+    return (
+        f"{name}: {bad.size} of {rows.shape[0]} vectors are not unit vectors (row {k + 1}, counted from 1: ({row}), length "
+        f"{norms[k]:.6g}); expected East-North-Up unit vectors{looks}"
+    )
+
+
+def check_unit_vectors(vectors, name: str, weight=None, warn: bool = False, stacklevel: int = 3,
+                       tolerance: float = UNIT_VECTOR_TOLERANCE) -> None:
+    """Refuse (:class:`ImplausibleValueError`), or with ``warn`` warn of, ``vectors``
+    that are not East-North-Up unit vectors (az/el in degrees, say): a length more than
+    ``tolerance`` from 1 (where vectors are normalised anyway, as by
+    :func:`pointax.command`, ``tolerance=1`` names only lengths beyond 2)."""
+    problem = unit_vectors_problem(vectors, name, weight, tolerance)
+    if problem is None:
+        return
+    if not warn:
+        raise ImplausibleValueError(problem)
+    from .errors import warn_input
+
+    warn_input(name, None, problem, stacklevel=stacklevel + 1)
+
+
+def offsets_scale_problem(values_rad, name: str, unit: str) -> str | None:
+    """A message when pointing offsets read in ``unit`` (converted to radians) are all
+    below :data:`SMALLEST_OFFSETS` (0.1") while some is nonzero: they are in a larger
+    unit (degrees read as arcsec: 0.004 deg is 14.4")."""
+    array = np.asarray(values_rad, np.float64)
+    finite = np.abs(array[np.isfinite(array)])
+    if finite.size < 3 or not np.any(finite > 0) or float(np.max(finite)) >= SMALLEST_OFFSETS:
+        return None
+    largest = float(np.max(finite)) / UNITS.get(unit, ARCSEC) if unit in UNITS else float(np.max(finite)) / ARCSEC
+    return (
+        f"{name}: every offset is below 0.1\" read as {unit} (largest {largest:g} {unit}): no pointing run "
+        f"measures offsets that small; they are most likely in degrees ({largest:g} deg = {largest * 3600:g}\") "
+        "or arcminutes"
+    )

@@ -812,8 +812,8 @@ def test_model_files_as_rts2_writes_them():
         ('RTS2_ALTAZ 1" 2" 3" 4" 5" 6" 7"\nAZ 1" sine az 2', 2, r"field 2 \(function\) is 'sine'"),
         ('RTS2_ALTAZ 1" 2" 3" 4" 5" 6" 7"\nAZ 1q sin az 2', 2, r"field 2 \(value of az:sin:az:2\) is '1q'"),
         ('RTS2_ALTAZ 1" 2" 3" 4" 5" 6" 7"\nHA 1" sin dec 2', 2, r"corrects ha, which a RTS2_ALTAZ model does not have"),
-        ('RTS2_GEM 1 2 3 4 5 6 7 8 9\nHA 1" sin dec 2\nHA 2" sin dec 2.0', 3, r"ha:sin:dec:2 is given twice \(first on line 2\)"),
-        ('RTS2_GEM 1 2 3 4 5 6 7 8 9\nthis is not', 2, r"not a gpoint model line"),
+        ('RTS2_GEM 1" 2" 3" 4" 5" 6" 7" 8" 9"\nHA 1" sin dec 2\nHA 2" sin dec 2.0', 3, r"ha:sin:dec:2 is given twice \(first on line 2\)"),
+        ('RTS2_GEM 1" 2" 3" 4" 5" 6" 7" 8" 9"\nthis is not', 2, r"not a gpoint model line"),
         ("# only a comment", None, r"no model line"),
     ],
 )

@@ -89,7 +89,7 @@ from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
 from ..units import DEG
-from .errors import warn_input
+from .errors import file_errors, warn_input
 from .gpoint_conventions import GPOINT_AZIMUTH, GpointFormatError
 from .gpoint_model import (  # the model files' names: importable from here, as before the split
     GpointModelFile,
@@ -454,6 +454,7 @@ def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
     )
 
 
+@file_errors(GpointFormatError)
 def read_gpoint(path: str | os.PathLike) -> GpointRun:
     """Read a gpoint input file: an alt-az run (``# altaz-manual`` or ``# altaz``) or a
     German-equatorial one (``# gem`` or ``# observatory``).
@@ -468,5 +469,5 @@ def read_gpoint(path: str | os.PathLike) -> GpointRun:
         GpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_gpoint(read_text(path, GpointFormatError), path)
+    return parse_gpoint(read_text(path, GpointFormatError, comments="#"), path)
 

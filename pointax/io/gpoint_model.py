@@ -52,6 +52,8 @@ from ..terms.gpoint import (
     parse_extra,
 )
 from .gpoint_conventions import GPOINT_AZIMUTH, GpointFormatError
+from .errors import file_errors
+from ..units import ARCSEC, POINTING_TERM_LIMIT
 from .text import read_text
 
 __all__ = [
@@ -224,6 +226,15 @@ def _model_value(path: str, lineno: int, token: str, what: str) -> float:
         return float(np.radians(number / 60.0))
     if unit == "d":
         return float(np.radians(number))
+    if abs(number) > POINTING_TERM_LIMIT:  # a bare number is radians (gpoint's rule): checked, not trusted
+        raise GpointFormatError(
+            path,
+            lineno,
+            f"{what} is {token!r} with no unit suffix, which gpoint reads as radians ({number:g} rad = "
+            f"{number / ARCSEC:,.0f}\"), beyond any pointing term (10 deg); it is most likely in arcseconds, the "
+            f"unit gpoint writes ({number:g}\" = {number * ARCSEC:.6g} rad): write the unit, {token}\" "
+            "(or d for degrees, ' for arcminutes)",
+        )
     return number
 
 
@@ -294,6 +305,7 @@ def parse_gpoint_model(text: str, path: str = "<string>") -> GpointModelFile:
     )
 
 
+@file_errors(GpointFormatError)
 def read_gpoint_model(path: str | os.PathLike) -> GpointModelFile:
     """Read a gpoint model file (``RTS2_ALTAZ`` / ``RTS2_GEM`` / ``RTS2_MODEL`` line and
     extra-term lines), as gpoint's ``GPoint.load`` reads it.
@@ -307,4 +319,4 @@ def read_gpoint_model(path: str | os.PathLike) -> GpointModelFile:
         GpointFormatError: naming file, line and field of the first malformed line.
     """
     path = os.fspath(path)
-    return parse_gpoint_model(read_text(path, GpointFormatError), path)
+    return parse_gpoint_model(read_text(path, GpointFormatError, comments="#"), path)

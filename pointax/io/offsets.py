@@ -92,9 +92,9 @@ from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
 from ..units import ARCSEC, DEG
-from .errors import FileFormatError
+from .errors import FileFormatError, file_errors
 from .offset_columns import UNIT_NAMES, header_fields, normalise, role_of, split_unit
-from .sanity import check_azimuth, check_not_radians, check_observed_elevation, warn_duplicates
+from .sanity import check_azimuth, check_not_radians, check_observed_elevation, check_offsets_scale, warn_duplicates
 from .text import is_number, read_text
 
 __all__ = [
@@ -335,14 +335,18 @@ def _is_header(first: list[str], second: list[str] | None) -> bool:
     return any(not is_number(a) and is_number(b) for a, b in zip(first, second))
 
 
-def _column_units(path, header_line, header, mapping, units) -> dict[str, str]:
+def _column_units(path, header_line, header, mapping, units, assumed: set | None = None) -> dict[str, str]:
     """role -> unit of every used column: the header's (``dxel [arcmin]``), else
-    ``units`` (offsets and errors) or degrees (positions)."""
+    ``units`` (offsets and errors) or degrees (positions). The roles whose unit neither
+    the header nor ``units`` states are added to ``assumed``."""
     out = {}
+    assumed = set() if assumed is None else assumed
     for role, (k, name) in mapping.items():
         default = "deg" if role in ("azimuth", "elevation") else (units or DEFAULT_UNITS)
         if name is None:
             out[role] = default
+            if role in ("azimuth", "elevation") or not units:
+                assumed.add(role)
             continue
         _, unit, written = split_unit(name)
         where = f"column {k + 1} ({name!r})"
@@ -362,6 +366,8 @@ def _column_units(path, header_line, header, mapping, units) -> dict[str, str]:
                 where,
             )
         out[role] = unit or default
+        if unit is None and (role in ("azimuth", "elevation") or not units):
+            assumed.add(role)
     return out
 
 
@@ -400,7 +406,8 @@ def parse_offsets(
     n_fields = len(header) if header else len(_split(records[0][1], csv))
     header_line = first_line if header else records[0][0]
     mapping = _mapping(path, header_line, header, n_fields, columns)
-    unit_of = _column_units(path, header_line, header, mapping, units)
+    assumed: set[str] = set()
+    unit_of = _column_units(path, header_line, header, mapping, units, assumed)
     scale_of = {role: OFFSET_UNITS[unit] for role, unit in unit_of.items()}
 
     def where(role):
@@ -462,6 +469,8 @@ def parse_offsets(
             lines,
             {where("azimuth"): (data[:, 0], 2 * math.pi), where("elevation"): (data[:, 1], math.pi / 2)},
         )
+    for k, role in ((2, "azimuth_offset"), (3, "elevation_offset")):  # offsets too small for their unit
+        check_offsets_scale(OffsetsFormatError, path, lines, data[:, k], where(role), unit_of[role], role in assumed)
     warn_duplicates(path, data[:, :4], lines, "rows")
 
     flip = 1.0 if sign == "observed-raw" else -1.0
@@ -508,6 +517,7 @@ def parse_offsets(
     )
 
 
+@file_errors(OffsetsFormatError)
 def read_offsets(
     path: str | os.PathLike,
     columns: Mapping[str, str | int] | Sequence[str | None] | None = None,
@@ -547,4 +557,4 @@ def read_offsets(
         OSError: the file cannot be opened.
     """
     path = os.fspath(path)
-    return parse_offsets(read_text(path, OffsetsFormatError), path, columns, units, azimuth, cross_elevation, sign)
+    return parse_offsets(read_text(path, OffsetsFormatError, comments="#!"), path, columns, units, azimuth, cross_elevation, sign)

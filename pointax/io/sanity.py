@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..units import check_not_degrees
+from ..units import check_not_degrees, offsets_scale_problem
 from .errors import FileFormatError, warn_input
 
 __all__ = [
@@ -28,6 +28,8 @@ __all__ = [
     "check_not_degrees",
     "warn_duplicates",
     "warn_after_end",
+    "check_offsets_scale",
+    "check_row_separations",
 ]
 
 AZIMUTH_LIMIT_DEG = 360.0
@@ -132,5 +134,63 @@ def warn_after_end(path, end_line: int, ignored: Sequence[int]) -> None:
         path,
         int(ignored[0]),
         f"{len(ignored)} non-comment line(s) after END (line {end_line}) were ignored ({span})",
+        stacklevel=5,
+    )
+
+
+def check_offsets_scale(
+    error: type[FileFormatError], path, lines: Sequence[int], values_rad, where: str, unit: str, assumed: bool
+) -> None:
+    """Pointing offsets all below 0.1" in ``unit`` (:func:`pointax.units.offsets_scale_problem`):
+    refused when the unit was assumed (no header unit, no ``units``), warned of when it
+    was stated."""
+    problem = offsets_scale_problem(values_rad, where, unit)
+    if problem is None:
+        return
+    fix = (
+        "; say the unit with units='deg' (--units deg) or in the header ('dxel [deg]')"
+        if assumed
+        else " (the unit was stated, so the offsets are read as given)"
+    )
+    if assumed:
+        raise error(path, int(lines[0]), f"{problem}, and no header or units= states their unit{fix}")
+    warn_input(path, int(lines[0]), problem + fix, stacklevel=5)
+
+
+ROW_SEPARATION_DEG = 5.0
+"""A row whose raw position lies more than this (degrees) from its observed one, after
+the run's common offset (the median differences) is taken out, is named: no pointing
+error differs that much from one row to the next (a row flipped in declination but not
+in hour angle, a typo in a field)."""
+
+
+def check_row_separations(path, lines: Sequence[int], observed: np.ndarray, raw: np.ndarray, what: str) -> None:
+    """Warn of the rows whose raw position (``raw``: longitude, latitude radians, e.g.
+    azimuth and elevation, or hour angle and declination on the sky, after any pier
+    flip) lies more than :data:`ROW_SEPARATION_DEG` from the observed one, once the
+    median differences of the run are taken out; each named by its line."""
+    observed, raw = np.asarray(observed, np.float64), np.asarray(raw, np.float64)
+    if observed.shape[0] == 0:
+        return
+    d_lon = (raw[:, 0] - observed[:, 0] + math.pi) % (2 * math.pi) - math.pi
+    d_lat = raw[:, 1] - observed[:, 1]
+    lon = observed[:, 0] + d_lon - (np.median(d_lon) if len(d_lon) >= 3 else 0.0)
+    lat = observed[:, 1] + d_lat - (np.median(d_lat) if len(d_lat) >= 3 else 0.0)
+
+    def vectors(a, b):
+        return np.stack([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)], axis=-1)
+
+    cosine = np.clip(np.sum(vectors(lon, lat) * vectors(observed[:, 0], observed[:, 1]), axis=1), -1.0, 1.0)
+    apart = np.degrees(np.arccos(cosine))
+    far = np.flatnonzero(apart > ROW_SEPARATION_DEG)
+    if far.size == 0:
+        return
+    shown = ", ".join(f"line {int(lines[k])}: {apart[k]:.1f} deg" for k in far[:5]) + (", ..." if far.size > 5 else "")
+    warn_input(
+        path,
+        int(lines[far[0]]),
+        f"{far.size} of {len(apart)} rows have {what} more than {ROW_SEPARATION_DEG:g} deg apart beyond the run's "
+        f"common offset ({shown}): a row flipped in declination but not in hour angle (or the reverse), or a "
+        "mistyped field? Such a row is fitted as it stands; correct it or mask it",
         stacklevel=5,
     )

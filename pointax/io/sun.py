@@ -35,8 +35,9 @@ import numpy as np
 
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy
-from .errors import FileFormatError
+from .errors import FileFormatError, file_errors
 from .sanity import AZIMUTH_LIMIT_DEG, HORIZON_DEG, check_not_radians, warn_duplicates
+from .text import read_text
 
 __all__ = [
     "SUN_COLUMNS",
@@ -164,6 +165,7 @@ def parse_sun_observations(text: str, path: str = "<string>") -> SunRun:
     )
 
 
+@file_errors(SunFormatError)
 def read_sun_observations(path: str | os.PathLike) -> SunRun:
     """Read a sun-observation file (see the module docstring for the format).
 
@@ -175,11 +177,7 @@ def read_sun_observations(path: str | os.PathLike) -> SunRun:
         OSError: the file cannot be opened.
     """
     path = os.fspath(path)
-    with open(path, encoding="utf-8", errors="strict") as f:
-        try:
-            text = f.read()
-        except UnicodeDecodeError as err:
-            raise SunFormatError(path, None, f"not a text file ({err})") from None
+    text = read_text(path, SunFormatError, comments="#")
     return parse_sun_observations(text, path)
 
 

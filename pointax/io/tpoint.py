@@ -41,12 +41,13 @@ from ..mounts import AZIMUTH_CONVENTIONS
 from ..observations import Observations
 from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
 from ..units import DEG
-from .errors import warn_input
+from .errors import file_errors, warn_input
 from .sanity import (
     HORIZON_DEG,
     check_azimuth,
     check_not_radians,
     check_observed_elevation,
+    check_row_separations,
     warn_duplicates,
 )
 from .sexagesimal import Group, group_value
@@ -74,6 +75,7 @@ from .tpoint_records import (  # noqa: F401  (the option names: importable from 
     OptionRecord,
     TpointFormatError,
     check_options,
+    misspelt_mount,
     option_records,
     record_numbers,
     records,
@@ -264,10 +266,10 @@ def _run_parameters(path: str, lineno: int, tokens: list[str]) -> RunParameters:
     return RunParameters(latitude, date, *optional)
 
 
-def _mount_of(path: str, lineno: int, options: list[str], mount: str | None) -> str:
+def _mount_of(path: str, lineno: int, options: list[OptionRecord], mount: str | None) -> str:
     """'altaz' or 'equatorial': the file's mount option, else ``mount``; refuse both
-    missing, and a file that contradicts ``mount``."""
-    said = MOUNT_OPTIONS.intersection(options)  # supported and consistent: check_options
+    missing (naming a misspelt mount option: ``ALTAZZ``), and a file that contradicts ``mount``."""
+    said = MOUNT_OPTIONS.intersection(o.keyword for o in options)  # supported and consistent: check_options
     in_file = "altaz" if ALTAZ_OPTION in said else ("equatorial" if said else None)
     if mount is not None and mount not in MOUNTS:
         raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
@@ -277,6 +279,7 @@ def _mount_of(path: str, lineno: int, options: list[str], mount: str | None) -> 
             f"but mount={mount!r} (--mount {mount}) was asked for"
         )
     if in_file is None and mount is None:
+        misspelt_mount(path, options)
         raise MountNotGivenError(
             path,
             lineno,
@@ -381,7 +384,7 @@ def parse_tpoint(
         tokens = line.split()
         if params is None:
             check_options(path, options)
-            kind = _mount_of(path, lineno, [o.keyword for o in options], mount)
+            kind = _mount_of(path, lineno, options, mount)
             params = _run_parameters(path, lineno, tokens)
             continue
         if n_columns is None:
@@ -428,6 +431,9 @@ def parse_tpoint(
     if kind == "altaz":
         data = values * DEG
         observed, encoder = data[:, :2], data[:, 2:]
+        over = encoder[:, 1] > math.pi / 2  # over the top: the reading points at az + 180, 180 - el
+        sky = np.column_stack([encoder[:, 0] + np.where(over, math.pi, 0.0), np.where(over, math.pi - encoder[:, 1], encoder[:, 1])])
+        check_row_separations(path, lines, observed, sky, "their observed and raw positions")
         target = azel_to_enu_numpy(observed[:, 0], observed[:, 1]) @ np.asarray(AZIMUTH_CONVENTIONS[azimuth]).T
         return TpointRun(
             observed=observed,
@@ -502,6 +508,11 @@ def _equatorial_run(values: np.ndarray, layout, params: RunParameters, constants
             path, int(lines[k]), f"{_where(layout, 0)}: the star is at elevation {elevation[k]:.2f} deg, below the "
             f"horizon at latitude {math.degrees(lat):.4f} deg (wrong hour angle, sidereal time or latitude?)"
         )
+    flip = np.abs(dec_tel) > math.pi / 2  # the other side of the pier: H - 12 h, +-180 deg - D on the sky
+    sky = np.column_stack([encoder[:, 0] - np.where(flip, math.pi, 0.0), np.where(flip, np.sign(dec_tel) * math.pi - dec_tel, dec_tel)])
+    check_row_separations(
+        path, lines, observed, sky, "their star and telescope positions (pier side as the declination says)"
+    )
     target = refract(enu, *constants)
     return TpointRun(
         observed=observed,
@@ -515,6 +526,7 @@ def _equatorial_run(values: np.ndarray, layout, params: RunParameters, constants
     )
 
 
+@file_errors(TpointFormatError)
 def read_tpoint(
     path: str | os.PathLike,
     azimuth: str = "N-E",
@@ -585,4 +597,4 @@ def read_tpoint(
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_tpoint(read_text(path, TpointFormatError), path, azimuth, mount, refraction)
+    return parse_tpoint(read_text(path, TpointFormatError, comments="!;", caption=True), path, azimuth, mount, refraction)

@@ -50,6 +50,7 @@ import numpy as np
 
 from ..units import ARCSEC
 from .text import read_text
+from .errors import file_errors
 from .tpoint_records import MOUNTS, TpointFormatError, record_numbers, records
 
 __all__ = [
@@ -125,6 +126,34 @@ class TpointModelFile:
         """Term values in radians, by name."""
         return {t.name: t.value * ARCSEC for t in self.terms}
 
+    def check_terms(self, form: str = "linear", mount: str = "altaz", latitude: float | None = None, names=None) -> tuple:
+        """The terms of this file (or those of ``names`` it holds) built for ``mount``
+        with their values (:func:`pointax.terms.tpoint`): what INMOD and ``--model``
+        read. Every term pointax cannot build is refused here, with the file and its
+        line, the library's reason kept (an equatorial term in an alt-az model: "TPOINT's
+        equatorial term ...", :class:`pointax.terms.NotYetInPointax`'s message).
+
+        Raises:
+            TpointFormatError: ``path:line: term record NAME: why``.
+            ValueError: for an unknown ``form`` or ``mount``.
+        """
+        from ..terms import tpoint
+
+        if mount not in MOUNTS:
+            raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
+        where = {} if mount == "altaz" else {"mount": mount, "latitude": latitude}
+        tpoint([], form=form, **where)  # an unknown form raises here, not as a term's error
+        wanted = None if names is None else {str(n).upper() for n in names}
+        terms = []
+        for t in self.terms:
+            if wanted is not None and t.name not in wanted:
+                continue
+            try:
+                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}, **where))
+            except ValueError as err:
+                raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
+        return tuple(terms)
+
     def model(self, form: str = "linear", azimuth: str = "N-E", mount: str = "altaz", latitude: float | None = None):
         """The :class:`pointax.Model` these terms describe, with their values.
 
@@ -142,7 +171,6 @@ class TpointModelFile:
             ValueError: for an unknown ``form``.
         """
         from ..mount_models import AltAz, Equatorial
-        from ..terms import tpoint
 
         if mount not in MOUNTS:
             raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")
@@ -151,14 +179,7 @@ class TpointModelFile:
                 f"{self.path}: an equatorial model needs the site's latitude (radians; a model file does not "
                 "record it): model(mount='equatorial', latitude=run.latitude)"
             )
-        where = {} if mount == "altaz" else {"mount": mount, "latitude": latitude}
-        tpoint([], form=form, **where)  # an unknown form raises here, not as a term's error
-        terms = []
-        for t in self.terms:
-            try:
-                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}, **where))
-            except ValueError as err:
-                raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
+        terms = self.check_terms(form, mount, latitude)
         fixed = [t.name for t in self.terms if t.fixed]
         if mount == "equatorial":
             return Equatorial(terms, latitude=latitude, fixed=fixed)
@@ -368,6 +389,7 @@ def _parse_line_records(text: str, path: str) -> TpointModelFile:
     return TpointModelFile(caption=caption, terms=tuple(terms), path=path, **header)
 
 
+@file_errors(TpointFormatError)
 def read_model(path: str | os.PathLike) -> TpointModelFile:
     """Read a TPOINT model file (``.mod``).
 
@@ -375,7 +397,7 @@ def read_model(path: str | os.PathLike) -> TpointModelFile:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_model(read_text(path, TpointFormatError), path)
+    return parse_model(read_text(path, TpointFormatError, comments="!;", caption=True), path)
 
 
 def exact_decimal(value: float, decimals: int, sign: bool = False) -> str:
@@ -517,13 +539,20 @@ def write_model(
     path: str | os.PathLike,
     source,
     caption: str | None = None,
-    refraction: tuple[float, float] = (0.0, 0.0),
+    refraction: tuple[float, float] | None = None,
     layout: str = "lines",
+    *,
+    run=None,
 ) -> None:
     """Write a TPOINT model file from a :class:`pointax.FitResult` or a :class:`pointax.Model`.
 
-    ``refraction``: TPOINT's refraction constants A and B in arcseconds (a run's
-    ``refraction`` divided by ``pointax.ARCSEC``), written in the fit-summary record.
+    ``run``: the run the result was fitted to (a :class:`pointax.io.TpointRun`): its
+    refraction constants, from its weather, go into the fit-summary record, as
+    ``pointax fit --write-model`` writes them, so that the same run gives the same
+    file through the command line and the API. ``refraction``: TPOINT's refraction
+    constants A and B in arcseconds, given explicitly (default: the run's,
+    :func:`refraction_arcsec`; ``(0, 0)`` without a run, with a warning for a fit
+    result, since TPOINT writes the run's).
     ``layout``: 'lines' or 'one-line' (:func:`format_model`); the one-line layout also
     records, for a fit result, the RMS of the x and y residuals and the observations
     the fit did not use (masked, numbered from 1 in the run's order).
@@ -536,6 +565,17 @@ def write_model(
     """
     from ..fitting.result import FitResult
 
+    if refraction is None:
+        if run is None and isinstance(source, FitResult):
+            import warnings
+
+            warnings.warn(
+                "write_model: no run given, so the refraction constants are written as 0 (pointax fit --write-model "
+                "writes the run's): pass run=<the run fitted> or refraction=(A, B)",
+                UserWarning,
+                stacklevel=2,
+            )
+        refraction = refraction_arcsec(run)
     fit_fields: dict = {}
     if isinstance(source, FitResult):
         model, sigmas = source.model, dict(zip(source.names, np.asarray(source.sigmas)))

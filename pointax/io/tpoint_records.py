@@ -151,8 +151,39 @@ def check_options(path: str, options: list[OptionRecord]) -> None:
     for option in options:
         if option.keyword in UNAPPLIED_OPTIONS:
             _warn_option(path, option, f"{UNAPPLIED_OPTIONS[option.keyword]}, which pointax does not apply")
-        elif option.keyword not in MOUNT_OPTIONS | ROTATOR_OPTIONS | {NO_DIURNAL_ABERRATION}:
-            _warn_option(path, option, "not a TPOINT option pointax knows; it is not applied")
+        elif option.keyword not in KNOWN_OPTIONS:
+            guess = suggest_option(option.keyword)
+            hint = f"; did you mean {guess}?" if guess else ""
+            _warn_option(path, option, f"not a TPOINT option pointax knows; it is not applied{hint}")
+
+
+KNOWN_OPTIONS = MOUNT_OPTIONS | ROTATOR_OPTIONS | {NO_DIURNAL_ABERRATION} | frozenset(UNAPPLIED_OPTIONS)
+"""Every option keyword pointax reads (applied, refused or warned of by name)."""
+
+
+def suggest_option(keyword: str, among=None) -> str | None:
+    """The known option ``keyword`` most likely misspells (``ALTAZZ`` -> ``ALTAZ``), or None."""
+    import difflib
+
+    close = difflib.get_close_matches(keyword, sorted(among or KNOWN_OPTIONS), n=1, cutoff=0.7)
+    return close[0] if close else None
+
+
+def misspelt_mount(path: str, options: list[OptionRecord]) -> None:
+    """Refuse an unknown option that misspells a mount option (``: ALTAZZ``), naming
+    it, its line and the option meant: called where a run names no mount, so that the
+    typo, not a missing record, is reported."""
+    for option in options:
+        if option.keyword in KNOWN_OPTIONS:
+            continue
+        guess = suggest_option(option.keyword, MOUNT_OPTIONS)
+        if guess:
+            raise TpointFormatError(
+                path,
+                option.line,
+                f"unknown option {option.keyword} on line {option.line}; did you mean {guess}? (the run names no "
+                "mount otherwise)",
+            )
 
 
 def _check_mounts(path: str, mounts: list[OptionRecord]) -> None:

@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from ..observations import Observations
-from .errors import FileFormatError
+from .errors import FileFormatError, file_errors
 from .sanity import AZIMUTH_LIMIT_DEG, check_not_radians, warn_duplicates
+from .text import read_text
 
 __all__ = ["XY_FIELDS", "XYFormatError", "XYRun", "read_xy_run", "write_xy_run"]
 
@@ -50,6 +51,7 @@ class XYRun:
     observations: Observations
 
 
+@file_errors(XYFormatError)
 def read_xy_run(path: str | os.PathLike) -> Observations:
     """Read an X-Y run in this module's text format (``L B L0 B0`` in degrees).
 
@@ -63,7 +65,7 @@ def read_xy_run(path: str | os.PathLike) -> Observations:
     """
     name = os.fspath(path)
     rows, lines = [], []
-    for number, line in enumerate(Path(path).read_text().splitlines(), 1):
+    for number, line in enumerate(read_text(name, XYFormatError, comments="#").splitlines(), 1):
         fields = line.split("#", 1)[0].replace(",", " ").split()
         if not fields:
             continue

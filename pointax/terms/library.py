@@ -17,6 +17,7 @@ from .harmonic import (
     parse_harmonic,
 )
 from .polynomial import Polynomial, RigorousPolynomial, is_polynomial_name, parse_polynomial, polynomial_term
+from ..units import check_pointing_term, is_quantity
 from .repertoire import not_yet_error, not_yet_reason
 from .tpoint import (
     ACEC,
@@ -141,9 +142,12 @@ def tpoint(
         spec: names separated by spaces or commas, or a sequence of names (default:
             TPOINT's basic terms of the mount, :data:`BASIC_ALTAZ` or
             :data:`BASIC_EQUATORIAL`).
-        form: 'linear' (TPOINT's own definitions, the default) or 'rigorous'
-            (exact rotations and encoder corrections, :mod:`pointax.terms.rigorous`,
-            :class:`pointax.terms.harmonic.RigorousHarmonic`).
+        form: 'linear' (TPOINT's formulas as first-order offsets at the sky
+            position, the default) or 'rigorous' (exact rotations and encoder
+            corrections, :mod:`pointax.terms.rigorous`,
+            :class:`pointax.terms.harmonic.RigorousHarmonic`: the model applied as
+            TPOINT applies it, nearer TPOINT's fitted values where corrections are
+            large). Terms with no rigorous form are the same in both.
         values: optional starting values in radians, by (upper-case) name.
         mount: 'altaz' (default) or 'equatorial': the same name may mean different
             terms on the two (TF).
@@ -171,6 +175,9 @@ def tpoint(
         spec = equatorial.BASIC_EQUATORIAL if equatorial_mount else BASIC_ALTAZ
     library = forms[form]
     values = {k.upper() if isinstance(k, str) else k: v for k, v in (values or {}).items()}
+    for key, value in values.items():  # radians assumed: a value in arcsec or degrees is named here
+        if not is_quantity(value):
+            check_pointing_term(value, str(key))
     out = []
     for name in names(spec):
         if name in library:

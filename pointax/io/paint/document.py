@@ -130,21 +130,55 @@ def value_lines(text: str) -> dict[str, int]:
     return lines
 
 
+class _DuplicateKey(ValueError):
+    """A key given twice in one JSON object (``args[0]``)."""
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``json``'s ``object_pairs_hook``: the object, refusing a key given twice (the
+    plain reader would keep the last one silently)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
+
+
 class JsonDocument:
     """One parsed JSON file plus typed accessors that raise :class:`PaintFormatError`."""
 
     def __init__(self, path: str | os.PathLike):
         self.path = os.fspath(path)
         try:
-            self.text = Path(self.path).read_text(encoding="utf-8-sig")
+            data = Path(self.path).read_bytes()
+            self.text = data.decode("utf-8-sig")
         except UnicodeDecodeError as err:
-            raise PaintFormatError(self.path, None, f"not a UTF-8 text file ({err})") from None
+            line = data[: err.start].count(b"\n") + 1
+            column = err.start - (data.rfind(b"\n", 0, err.start) + 1) + 1
+            raise PaintFormatError(
+                self.path, None, f"column {column}: byte 0x{data[err.start]:02x} is not UTF-8 (JSON files are UTF-8)",
+                line=line,
+            ) from None
         try:
-            self.data = json.loads(self.text)
+            self.data = json.loads(self.text, object_pairs_hook=_unique_keys)
         except json.JSONDecodeError as err:
             raise PaintFormatError(
                 self.path, None, f"malformed JSON: {err.msg} (column {err.colno})", line=err.lineno
             ) from None
+        except _DuplicateKey as err:
+            key = err.args[0]
+            found = [self.text.count("\n", 0, m.start()) + 1 for m in re.finditer(re.escape(json.dumps(key)) + r"\s*:", self.text)]
+            where = f" (lines {', '.join(map(str, found))})" if found else ""
+            raise PaintFormatError(
+                self.path,
+                None,
+                f"key {key!r} is given twice in one object{where}: JSON readers keep the last silently; "
+                "remove the one that is wrong",
+                line=found[-1] if found else None,
+            ) from None
+        except RecursionError:
+            raise PaintFormatError(self.path, None, "JSON nested too deeply to read") from None
         self._lines: dict[str, int] | None = None
 
     def line_of(self, field: str) -> int | None:
