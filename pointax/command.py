@@ -14,8 +14,8 @@ root finder, Jacobian by JAX, batched with ``vmap`` over directions under one
    constant zeros such as IA, IE, alpha0, beta0, however large) and the mount turns
    angles into raw readings (:meth:`pointax.Mount.readings_of`).
 3. Each axis is put on the branch (``2 pi k`` shifts) that lies inside ``limits``;
-   where several do, the one nearest ``near`` if given, else the lowest (without
-   limits: axis 1 nearest 0, axis 2 unshifted).
+   where several do, the one nearest ``near`` if given, else the one nearest the
+   middle of the limits (without limits: axis 1 nearest 0, axis 2 unshifted).
 4. Newton from there; the branch rule is applied once more to the converged reading
    (a shift by whole turns is kept only if the model still points at ``d`` there,
    so models that are not periodic in the readings stay on the Newton branch).
@@ -45,7 +45,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 from ._x64 import float64
 from .model import Model
 from .rotations import angle_between, tangent_offset
-from .units import angles_in_radians, directions_enu, is_quantity
+from .units import angles_in_radians, check_unit_vectors, directions_enu, is_quantity
 
 __all__ = ["LIMIT_TURNS", "OPPOSITE_TOL", "SOLUTIONS", "ZENITH_TOL", "Command", "command", "command_reflector", "limits_array", "reflect_normal"]
 
@@ -187,16 +187,15 @@ def _centre(limits, near, has_near, base):
 
 def _pick(cands, limits, near, has_near, pref):
     """Index of the candidate reading (rows of ``cands``) chosen by the branch rule:
-    inside the limits, then nearest ``near`` if given, else lowest (where the lower
-    limit is finite) or nearest ``pref``. With none inside, the least out of limits."""
+    inside the limits, then nearest ``near`` if given, else nearest the middle of the
+    limits (an axis limited at one end: half a turn inside that end) or, on an axis
+    without limits, nearest ``pref``. With none inside, the least out of limits."""
     lo, hi = limits[:, 0], limits[:, 1]
     valid = jnp.all((cands >= lo) & (cands <= hi), axis=-1)
-    score = jnp.where(
-        has_near,
-        jnp.abs(cands - near),
-        jnp.where(jnp.isfinite(lo), cands - jnp.where(jnp.isfinite(lo), lo, 0.0), jnp.abs(cands - pref)),
-    )
-    score = jnp.sum(score, axis=-1)
+    # Without ``near``: nearest the middle of the limits (axis 1 of a cable wrap
+    # -270..270 deg commands azimuth 90 deg to 90, not -270), else nearest ``pref``.
+    target = jnp.where(has_near, near, _centre(limits, near, False, pref))
+    score = jnp.sum(jnp.abs(cands - target), axis=-1)
     violation = jnp.sum(jnp.maximum(lo - cands, 0.0) + jnp.maximum(cands - hi, 0.0), axis=-1)
     best = jnp.argmin(jnp.where(valid, score, jnp.inf))
     least_bad = jnp.argmin(violation)
@@ -407,7 +406,9 @@ def command(
             limits; e.g. ``((0, 2 pi), None)`` for a turntable's azimuth encoder or
             ``((-1.5 pi, 1.5 pi), (0, pi / 2))`` for a telescope's cable wrap. Each
             axis is put on the branch (shifts by 2 pi) inside its limits: of several,
-            the one nearest ``near``, else the lowest. A direction that cannot be
+            the one nearest ``near``, else the one nearest the middle of the limits
+            (a cable wrap of -270..270 deg commands azimuth 90 deg to about 90, not
+            -270). A direction that cannot be
             reached inside them gets ``ok=False`` and an "out of limits" reason.
             Whole-turn candidates are searched within about +-2.5 turns of the middle
             of the limits. Astropy Quantities are converted; an inverted axis (min
@@ -429,6 +430,9 @@ def command(
     """
     if solution not in SOLUTIONS:
         raise ValueError(f"unknown solution {solution!r}; expected one of {SOLUTIONS}")
+    if not is_quantity(direction) and not isinstance(direction, jax.core.Tracer):
+        # az/el in degrees where unit vectors belong is named (non-unit vectors are normalised)
+        check_unit_vectors(direction, "direction", warn=True, tolerance=1.0)
     direction = jnp.asarray(directions_enu(direction, "direction"), float)
     if direction.ndim < 1 or direction.shape[-1] != 3:
         raise ValueError(f"direction must have shape (..., 3), got {direction.shape}")

@@ -138,9 +138,9 @@ def test_cable_wrap_branch_nearest_near():
     expected = np.radians([-260.0, 100.0, 100.0, -110.0, 260.0])
     np.testing.assert_allclose(np.asarray(c.reading[:, 0]), expected, atol=0.01)
     assert np.max(_error(model, c.reading, d)) < ROUND_TRIP_TOL
-    # Without near: the lowest branch inside the limits.
+    # Without near: the branch nearest the middle of the limits (issue 30).
     c = command(model, d, limits=limits)
-    np.testing.assert_allclose(np.asarray(c.reading[:, 0]), np.radians([-260.0, -260, -260, -110, -100]), atol=0.01)
+    np.testing.assert_allclose(np.asarray(c.reading[:, 0]), np.radians([100.0, 100, 100, -110, -100]), atol=0.01)
     # One near for every direction broadcasts.
     c = command(model, d, near=np.radians([200.0, 45.0]), limits=limits)
     np.testing.assert_allclose(np.asarray(c.reading[:, 0]), np.radians([100.0, 100, 100, 250, 260]), atol=0.01)

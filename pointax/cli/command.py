@@ -21,7 +21,13 @@ def add_command_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``pointax command`` to an ``argparse`` sub-parser set; returns its parser."""
     c = subparsers.add_parser("command", help="encoder commands for wanted directions (the model's inverse)")
     c.add_argument("directions", help="text file of 'az el' (deg) per line, or '-' for standard input")
-    c.add_argument("--mount", choices=["turntable", "altaz"], default="turntable", help="mount kind (default: turntable)")
+    c.add_argument(
+        "--mount",
+        choices=["turntable", "altaz", "equatorial"],
+        default=None,
+        help="mount kind (default: altaz with --model, else turntable; equatorial needs --model and --latitude)",
+    )
+    c.add_argument("--latitude", type=float, default=None, help="equatorial: site latitude (deg)")
     c.add_argument(
         "--params",
         default="",
@@ -29,14 +35,27 @@ def add_command_parser(subparsers) -> argparse.ArgumentParser:
         "(turntable: degrees, e.g. mu0=0.0751,nu0=0.0145,omega0=-0.0947,alpha0=60.5425,beta0=165.8931)",
     )
     c.add_argument("--terms", default=None, help="terms of the model (default: turntable 'full'; altaz: the --model file's)")
-    c.add_argument("--model", metavar="FILE", help="altaz: TPOINT model file with the fitted terms")
+    c.add_argument("--model", metavar="FILE", help="TPOINT model file with the fitted terms (altaz or equatorial)")
     c.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="altaz: term form (default: linear)")
-    c.add_argument("--azimuth", choices=sorted(choices.AZIMUTH_CONVENTIONS), default="N-E", help="altaz: encoder azimuth convention")
+    c.add_argument(
+        "--azimuth",
+        choices=sorted(choices.AZIMUTH_CONVENTIONS),
+        default="N-E",
+        help="altaz: azimuth convention of the encoder readings (and of the model's terms); the input "
+        "directions are always N-E (North through East); default N-E",
+    )
     c.add_argument("--reflect", action="store_true", help="lines hold sun az el and target az el: command the mirror normal")
     c.add_argument(
         "--limits",
         default=None,
         help="axis limits in degrees: a1min,a1max,a2min,a2max (default: turntable 0,360 on axis 1; altaz none)",
+    )
+    c.add_argument(
+        "--near",
+        default=None,
+        metavar="A1,A2",
+        help="readings (deg) to command nearest: the azimuth wrap branch and, with --solution nearest, the "
+        "mechanical solution nearest them (default: the middle of the limits, normal solution)",
     )
     c.add_argument(
         "--solution", choices=choices.SOLUTIONS, default="nearest", help="mechanical solution (default: nearest, i.e. normal)"
@@ -126,12 +145,33 @@ def _command_model(args):
     from ..mount_models import AltAz, Turntable
     from ..units import UNITS
 
-    if args.mount == "turntable":
+    mount = args.mount or ("altaz" if args.model else "turntable")
+    if args.model and mount == "turntable":
+        raise ValueError("--model: a TPOINT model is for --mount altaz or equatorial, not turntable")
+    if mount != "equatorial" and args.latitude is not None:
+        raise ValueError("--latitude is for --mount equatorial")
+    if mount == "turntable":
         model = Turntable(args.terms or "full")
         default_limits = ((0.0, 2 * np.pi), None)
+    elif mount == "equatorial":
+        if not args.model:
+            raise ValueError("--mount equatorial needs --model FILE (the TPOINT model) and --latitude DEG")
+        if args.latitude is None or not math.isfinite(args.latitude) or abs(args.latitude) > 90.0:
+            raise ValueError("--mount equatorial needs the site's --latitude DEG (-90..90): a model file does not record it")
+        model = read_model(args.model).model(form=args.form, mount="equatorial", latitude=math.radians(args.latitude))
+        default_limits = None
     else:
         if args.model:
             tpoint_model = read_model(args.model)
+            if args.mount is None:
+                # The mount inferred from the terms: every term must be an alt-az one.
+                try:
+                    tpoint_model.check_terms(args.form, "altaz")
+                except ValueError as err:
+                    raise ValueError(
+                        f"{err}\n--model {args.model}: its terms are not all alt-az ones, so the mount cannot be "
+                        "taken as altaz: give --mount (an equatorial model: --mount equatorial --latitude DEG)"
+                    ) from None
             names = args.terms or " ".join(t.name for t in tpoint_model.terms)
             model = AltAz(term_library.tpoint(names, form=args.form), azimuth=args.azimuth)
             known = set(model.parameter_names)
@@ -171,6 +211,29 @@ def _command_model(args):
     return model, ((lim[0], lim[1]), (lim[2], lim[3]))
 
 
+def _near(text: str | None):
+    """``--near a1,a2`` (degrees) in radians, or None."""
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"--near: expected a1,a2 in degrees, got {text!r}") from None
+    if len(values) != 2 or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"--near: expected two finite numbers a1,a2 in degrees, got {text!r}")
+    if any(abs(v) > 720.0 for v in values):
+        raise ValueError(f"--near: {text!r} is beyond two turns (degrees expected)")
+    return [math.radians(v) for v in values]
+
+
+def _conventions(args, model) -> dict:
+    """Which azimuth convention the input and the readings are in (for headers and JSON)."""
+    mount = args.mount or ("altaz" if args.model else "turntable")
+    reading = args.azimuth if mount == "altaz" else None
+    return {"input_azimuth": "N-E", "reading_azimuth": reading}
+
+
 def _command(args) -> int:
     from ..compilation_cache import enable_compilation_cache
 
@@ -180,15 +243,17 @@ def _command(args) -> int:
     from ..command import command, command_reflector
     from ..rotations import azel_to_enu_numpy
 
+    near = _near(args.near)
     model, limits = _command_model(args)
     rows = np.asarray(read_directions(args.directions, 4 if args.reflect else 2))
+    conventions = _conventions(args, model)
     rad = np.radians(rows)
 
     if args.reflect:
         sun, target = azel_to_enu_numpy(rad[:, 0], rad[:, 1]), azel_to_enu_numpy(rad[:, 2], rad[:, 3])
-        cmd = command_reflector(model, sun, target, limits=limits, solution=args.solution)
+        cmd = command_reflector(model, sun, target, limits=limits, solution=args.solution, near=near)
     else:
-        cmd = command(model, azel_to_enu_numpy(rad[:, 0], rad[:, 1]), limits=limits, solution=args.solution)
+        cmd = command(model, azel_to_enu_numpy(rad[:, 0], rad[:, 1]), limits=limits, solution=args.solution, near=near)
     reading = np.degrees(np.asarray(cmd.reading))
     ok = np.asarray(cmd.ok)
     residual = np.asarray(cmd.residual)
@@ -203,12 +268,18 @@ def _command(args) -> int:
                 "ok": bool(k),
                 "residual_rad": _number(res),
                 "reason": why,
+                **conventions,
             }
             for row, r, k, res, why in zip(rows, reading, ok, residual, reasons)
         ]
         print(json.dumps(out, indent=2))
     else:
         print(f"# {model.describe()}")
+        reading_az = conventions["reading_azimuth"]
+        print(
+            "# input: azimuth N-E (from North through East), elevation; readings: "
+            + (f"{names[0]} in the {reading_az} convention" if reading_az else "the mount's raw axis readings")
+        )
         print(f"# {'input (deg)':<40s} {names[0] + ' (deg)':>14s} {names[1] + ' (deg)':>14s}  ok  reason")
         for row, r, k, why in zip(rows, reading, ok, reasons):
             text = " ".join(f"{x:9.4f}" for x in row)
