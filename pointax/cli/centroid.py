@@ -9,7 +9,8 @@ frame with the keys ``frame``, ``x``, ``y``, ``radius``, ``method``, ``status``,
 
 Exit status: 0 when every frame gave a centre, 1 when some frames are bad (no sun,
 clipped, cloud, saturated ...), 2 for bad input (a file that cannot be read, a bad
-option); every frame is still reported.
+option; every frame is still reported) or when torch or kornia is missing (the message
+gives the install line, ``pip install 'pointax[vision]'``).
 
 Wired into the ``pointax`` command by :func:`add_centroid_parser` and
 :func:`run_centroid` (the frames and centroids: :mod:`pointax.sunsensor`, loaded by
@@ -80,7 +81,15 @@ def _format(rows: list[dict]) -> str:
 
 
 def run_centroid(args: argparse.Namespace) -> int:
-    """Run ``pointax centroid`` for parsed ``args``; returns the exit status."""
+    """Run ``pointax centroid`` for parsed ``args``; returns the exit status (2, with
+    the install line, when torch or kornia is missing)."""
+    from ..sunsensor import require_vision
+
+    try:
+        require_vision()
+    except ImportError as err:
+        print(f"pointax centroid: error: {err}", file=sys.stderr)
+        return 2
     from ..sunsensor.centroid import centroid
     from ..sunsensor.imageio import FrameReadError, read_frame
 

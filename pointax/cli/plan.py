@@ -57,8 +57,13 @@ model there, arcsec), the predicted RMS, maximum and median-run RMS over the pla
 ``median_rms_arcsec``, ``n_sky``, ``sky``: 'grid' or 'path'), ``rms_after_arcsec`` and
 ``targets`` (``order``, ``label``, ``azimuth_deg``, ``elevation_deg``, ``readings``,
 ``predicted_sigma_arcsec``, ``time``, ``magnitude``). ``--skymap FILE.png`` also saves
-the predicted-accuracy sky map. Exit status: 0 success, 1 when ``--target-rms`` was not
-reached (or reached only before the stars moved), 2 bad input.
+the predicted-accuracy sky map, titled with the figures of the table (over the plan's
+sky: for ``--sun``, the sun's path). Exit status: 0 success, 1 when ``--target-rms`` was
+not reached (or reached only before the stars moved), 2 bad input: options that
+contradict (a minimum elevation or axis limit not below its maximum, ``--max-magnitude``
+or ``--cadence`` for a sun or grid plan, a ``--step`` longer than ``--days``) or lie out
+of range are refused before any numerical library is imported (:func:`check_options`);
+a ``--max-magnitude`` brighter than every catalogue star names the brightest.
 """
 
 from __future__ import annotations
@@ -69,7 +74,7 @@ import math
 
 from .common import error, missing_input
 
-__all__ = ["add_plan_parser", "run_plan", "PLAN_MOUNTS", "PLAN_CRITERIA"]
+__all__ = ["add_plan_parser", "run_plan", "check_options", "PLAN_MOUNTS", "PLAN_CRITERIA"]
 
 PLAN_MOUNTS = ("altaz", "xy", "turntable", "heliostat")
 """Mounts ``pointax plan`` plans for."""
@@ -172,7 +177,29 @@ def _model(args, mount: str):
     return model.set(**parse_params(args.params, model))
 
 
-def _plan(args):
+def _finite(option: str, value, *, positive: bool = False, low=None, high=None) -> None:
+    """ValueError naming ``option`` unless ``value`` (None: not given) is finite and in range."""
+    if value is None:
+        return
+    if not math.isfinite(value) or (positive and not value > 0):
+        raise ValueError(f"{option} must be a {'positive' if positive else 'finite'} number, got {value}")
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise ValueError(f"{option} must be between {low:g} and {high:g}, got {value:g}")
+
+
+def _ordered(option: str, text: str | None, count: int = 2) -> None:
+    """ValueError unless ``text`` (MIN,MAX) has MIN below MAX."""
+    if text:
+        lo, hi = _floats(text, count, option)
+        if not lo < hi:
+            raise ValueError(f"{option}: the minimum ({lo:g}) must be below the maximum ({hi:g}), got {text!r}")
+
+
+def check_options(args) -> tuple[str, float, float]:
+    """Every check of the options that needs no numerical library: one option out of
+    range or two that contradict (a minimum above its maximum, an option of another
+    kind of plan). Returns ``(mount, min elevation, max elevation)`` (degrees, the
+    defaults filled in); ValueError naming the options otherwise."""
     mount = args.mount or ("turntable" if args.sun else "altaz")
     if args.sun and mount not in ("turntable", "heliostat"):
         raise ValueError(f"--sun plans sun trackers: use --mount turntable or heliostat (not {mount})")
@@ -180,8 +207,9 @@ def _plan(args):
         raise ValueError(f"--mount {mount}: plan over sun positions (--sun)" + (" or a grid (--grid)" if mount == "turntable" else ""))
     if args.n < 1:
         raise ValueError(f"-n must be at least 1, got {args.n}")
-    if not (args.noise > 0):
+    if not (math.isfinite(args.noise) and args.noise > 0):
         raise ValueError(f"--noise must be positive, got {args.noise}")
+    _finite("--target-rms", args.target_rms, positive=True)
     for option, value in (("--sun-avoid", args.sun_avoid), ("--moon-avoid", args.moon_avoid)):
         if not (0.0 <= value <= 180.0):
             raise ValueError(f"{option} must be between 0 and 180 degrees, got {value}")
@@ -191,8 +219,34 @@ def _plan(args):
         raise ValueError("--cadence schedules stars: sun positions are at their own times, and a grid has none")
     if args.whole_sky and not args.sun:
         raise ValueError("--whole-sky is for sun plans (--sun): star and grid plans are judged over the whole sky already")
+    if args.max_magnitude is not None and (args.sun or args.grid):
+        raise ValueError("--max-magnitude selects stars: a sun or grid plan has none")
+    _finite("--max-magnitude", args.max_magnitude)
+    _finite("--pressure", args.pressure, low=0.0, high=1100.0)
+    _finite("--min-elevation", args.min_elevation, low=-90.0, high=90.0)
+    _finite("--max-elevation", args.max_elevation, low=-90.0, high=90.0)
     lo = args.min_elevation if args.min_elevation is not None else (15.0 if args.sun else 20.0)
     hi = args.max_elevation if args.max_elevation is not None else (90.0 if args.sun else 85.0)
+    if not lo < hi:
+        given = " and ".join(f"{o} {v:g}" for o, v in (("--min-elevation", args.min_elevation), ("--max-elevation", args.max_elevation))
+                             if v is not None)  # fmt: skip
+        raise ValueError(f"the minimum elevation ({lo:g} deg) must be below the maximum ({hi:g} deg): {given}")
+    _ordered("--az-limits", args.az_limits)
+    _ordered("--el-limits", args.el_limits)
+    if args.sun:
+        _finite("--days", args.days, positive=True)
+        _finite("--step", args.step, positive=True)
+        if args.step > args.days * 1440.0:
+            raise ValueError(f"--step {args.step:g} minutes is longer than --days {args.days:g} ({args.days * 1440.0:g} minutes): one sun position")
+    if args.site:
+        lat, lon, height = _floats(args.site, 3, "--site")
+        if not -90.0 <= lat <= 90.0:
+            raise ValueError(f"--site: latitude must be between -90 and 90 degrees, got {lat:g}")
+    return mount, lo, hi
+
+
+def _plan(args):
+    mount, lo, hi = check_options(args)
     site = time = None
     if not args.grid:
         if not args.site or not args.time:

@@ -135,11 +135,18 @@ class PredictedAccuracy:
         covariance: ``(p, p)`` covariance of the free parameters.
         observations: ``(k, 3)`` ENU directions of the observations it came from, if
             known (drawn on :meth:`skymap`).
+        sky: ``(m, 3)`` ENU directions a plan was judged over (:attr:`Plan.sky`: for
+            a sun plan, the sun's path), or None (:func:`sky_grid`): the figures of
+            :meth:`skymap`'s title are ``summary(sky)``, those of the plan's table.
+        sky_name: what ``sky`` is ('grid', 'path', 'sun path' or 'given'; None: the
+            grid), named in the sky map's title.
     """
 
     model: Model
     covariance: Float[np.ndarray, "p p"]
     observations: Float[np.ndarray, "k 3"] | None = None
+    sky: Float[np.ndarray, "m 3"] | None = None
+    sky_name: str | None = None
 
     @float64
     def axes(self, directions) -> Float[np.ndarray, "n 2"]:
@@ -170,7 +177,7 @@ class PredictedAccuracy:
     @float64
     def summary(self, sky=None, *, quantiles: int = 4000, seed: int = 0) -> dict:
         """Figures over the visible sky (``sky``: ``(m, 3)`` ENU directions, default
-        :func:`sky_grid`), in arcseconds:
+        :func:`sky_grid`; a plan's own figures are ``summary(self.sky)``), in arcseconds:
 
         * ``rms_arcsec``: ``sqrt(trace(G C))``, the RMS over the sky (and over runs) of
           the pointing error of a fitted model;

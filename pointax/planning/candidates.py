@@ -222,7 +222,15 @@ def star_candidates(
 
     sun_avoid_deg = _avoid_angle(sun_avoid_deg, "sun_avoid_deg")
     moon_avoid_deg = _avoid_angle(moon_avoid_deg, "moon_avoid_deg")
-    cat = (bright_stars() if catalogue is None else catalogue).select(max_magnitude, single_only)
+    full = bright_stars() if catalogue is None else catalogue
+    cat = full.select(max_magnitude, single_only)
+    if len(cat) == 0:
+        pool = full.select(None, single_only)
+        brightest = f"the brightest is magnitude {float(np.min(pool.magnitude)):.2f}" if len(pool) else "it has none"
+        raise ValueError(
+            f"no star of the catalogue is as bright as magnitude {max_magnitude:g}"
+            + (" with a single-star solution" if single_only else "") + f" ({brightest}): raise the magnitude limit"
+        )
     t = as_time(time)
     if t.shape != ():
         raise ValueError(f"time must be a single time, got shape {t.shape}")

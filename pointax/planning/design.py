@@ -46,6 +46,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from .._x64 import float64
+
 __all__ = [
     "CRITERIA", "STARTS", "greedy_design", "exchange_design", "design_scores", "design_bound", "DEFAULT_RIDGE",
     "EXCHANGE_PASSES", "DESIGN_BOUND_ITERATIONS",
@@ -101,6 +103,7 @@ def _greedy(a, g, m0, available, n, n_start, size: int, criterion: str):
     return order, objective
 
 
+@float64
 def greedy_design(
     a: Float[np.ndarray, "N 2 p"],
     g: Float[np.ndarray, "p p"],
@@ -195,6 +198,7 @@ def _exchange(a, g, m0, available, chosen_idx, n, passes, criterion: str):
     return idx, swaps
 
 
+@float64
 def exchange_design(
     a: Float[np.ndarray, "N 2 p"],
     g: Float[np.ndarray, "p p"],
@@ -261,6 +265,7 @@ def _continuous_design(a, g, available, iterations: int):
     return w, jnp.maximum(lower, 2.0 * phi - jnp.max(d)), phi
 
 
+@float64
 def design_bound(
     a: Float[np.ndarray, "N 2 p"],
     g: Float[np.ndarray, "p p"],

@@ -333,7 +333,9 @@ def plan_run(
             + (f"; {len(dropped)} dropped at their scheduled times" if dropped else "")
             + f") do not determine the model's {p} free parameters: allow more observations or more candidates"
         ) from None
-    acc = PredictedAccuracy(model, cov, targets.direction)
+    # The accuracy keeps the plan's sky, so that the sky map's title gives the plan's
+    # own figures (those of the table): for a sun plan, over the sun's path.
+    acc = PredictedAccuracy(model, cov, targets.direction, sky, "sun path" if sky_name == "path" and candidates.kind == "sun" else sky_name)
     summary = {**acc.summary(sky), "sky": sky_name}
     if stopped == "target" and summary["rms_arcsec"] * ARCSEC > target * (1.0 + 1e-9):
         stopped = "moved"

@@ -40,6 +40,11 @@ def accuracy_skymap(accuracy, *, resolution_deg=2.0, min_elevation_deg=20.0, max
         ax.plot(pos[:, 0], pos[:, 1], "o", color="white", markeredgecolor="black", markersize=4.5, linestyle="none",
                 label=f"observations ({len(pos)})", gid="observations")  # fmt: skip
         ax.legend(loc="upper right", fontsize="small", bbox_to_anchor=(1.0, 1.02))
-    s = accuracy.summary()
-    ax.set_title(title or f"predicted pointing error: sky RMS {s['rms_arcsec']:.2f}\", max {s['max_arcsec']:.2f}\"", fontsize="medium")
+    if title is None:
+        # The figures of accuracy.summary(): over the plan's sky (a sun plan: the sun's
+        # path), the same as the plan's table, named as it names them.
+        s = accuracy.summary(accuracy.sky)
+        where = {None: "sky", "grid": "sky", "path": "path", "sun path": "sun's path"}.get(accuracy.sky_name, "given sky")
+        title = f"predicted pointing error: RMS over the {where} {s['rms_arcsec']:.3f}\", max {s['max_arcsec']:.3f}\""
+    ax.set_title(title, fontsize="medium")
     return fig

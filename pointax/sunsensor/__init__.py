@@ -53,6 +53,25 @@ _EXPORTS = {
 
 __all__ = sorted(_EXPORTS)
 
+VISION_INSTALL = "pip install 'pointax[vision]'"
+"""The install line of the optional extra this package needs (torch, kornia, pillow)."""
+
+
+def require_vision() -> None:
+    """Import torch and kornia, or raise ImportError saying how to install them
+    (:data:`VISION_INSTALL`), as :func:`pointax.plots._mpl.require_matplotlib` does for
+    matplotlib."""
+    missing = []
+    for name in ("torch", "kornia"):
+        try:
+            __import__(name)
+        except ImportError:
+            missing.append(name)
+    if missing:
+        raise ImportError(
+            f"pointax's sun-sensor images need {' and '.join(missing)}, part of an optional extra: {VISION_INSTALL}"
+        )
+
 
 # ``centroid`` is both a function and the submodule defining it: the package keeps the
 # function whichever is imported first (pointax._lazy).
