@@ -183,11 +183,17 @@ def _write_tpoint(path: Path, obs) -> None:
 def test_tpoint_fauto_prints_the_step_table(tmp_path, capsys, altaz):
     obs, f = altaz
     _write_tpoint(tmp_path / "run.dat", obs)
-    (tmp_path / "f.ptp").write_text("indat run.dat\nfauto\nshow\n")
+    (tmp_path / "f.ptp").write_text(
+        "indat run.dat\nfauto\nshow\nfit\noutmod f.mod\ninmod f.mod\nlose HASA2\noutmod g.mod\n"
+    )
     assert main(["tpoint", str(tmp_path / "f.ptp")]) == 0
     out = capsys.readouterr().out
     assert "stage" in out and "Popn SD" in out and "add    HASA2" in out and "add    HECE3" in out
     assert "&HASA2" in out and "mount: altaz" in out
+    # OUTMOD flags the terms FAUTO added '&'; INMOD keeps the flags; LOSE drops them.
+    flagged = {t.name for t in read_model(tmp_path / "f.mod").terms if t.parallel}
+    assert flagged == {"HASA2", "HECE3"}
+    assert {t.name for t in read_model(tmp_path / "g.mod").terms if t.parallel} == {"HECE3"}
 
 
 def test_show_names_an_equatorial_run_s_mount(tmp_path, capsys):

@@ -543,8 +543,12 @@ def write_model(
     layout: str = "lines",
     *,
     run=None,
+    parallel: Iterable[str] = (),
 ) -> None:
     """Write a TPOINT model file from a :class:`pointax.FitResult` or a :class:`pointax.Model`.
+
+    ``parallel``: names of terms flagged ``&`` (TPOINT's mark of the terms FAUTO added,
+    applied in parallel with the previous term; pointax sums every term either way).
 
     ``run``: the run the result was fitted to (a :class:`pointax.io.TpointRun`): its
     refraction constants, from its weather, go into the fit-summary record, as
@@ -603,6 +607,7 @@ def write_model(
                 float(model.get(p.name)) / ARCSEC,
                 None if sigma is None else float(sigma) / ARCSEC,
                 fixed=p.name in model.fixed,
+                parallel=p.name in parallel,
             )
         )
     if layout != "one-line":

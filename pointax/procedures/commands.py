@@ -77,6 +77,7 @@ def cmd_inmod(s: Session, args: list[str], line: Line) -> None:
     s.terms = names
     s.values = {n: v for n, v in zip(names, (t.value * ARCSEC for t in mod.terms))}
     s.fixed = {t.name.upper() for t in mod.terms if t.fixed}
+    s.parallel = {t.name.upper() for t in mod.terms if t.parallel}
     s.refraction = mod.refraction
     s.stale = True
     s.say(f"INMOD: {len(names)} terms from {path}: {' '.join(names)}")
@@ -104,12 +105,12 @@ def cmd_outmod(s: Session, args: list[str], line: Line) -> None:
     refraction = s.refraction or refraction_arcsec(s.run)  # INMOD's constants, else the run's weather
     shape = " (one-line layout)" if layout == "one-line" else ""
     if s.result is not None and not s.stale:
-        write_model(path, s.result, caption=s.current_caption(), refraction=refraction, layout=layout)
+        write_model(path, s.result, caption=s.current_caption(), refraction=refraction, layout=layout, parallel=s.parallel)
         s.say(f"OUTMOD: {path}{shape} (N {int(s.result.n_obs)}, Sky RMS {float(s.result.sky_rms) / ARCSEC:.4f})")
     else:
         if not s.terms:
             raise ValueError("OUTMOD: the model has no terms (USE or INMOD first)")
-        write_model(path, s.model(), caption=s.current_caption(), refraction=refraction, layout=layout)
+        write_model(path, s.model(), caption=s.current_caption(), refraction=refraction, layout=layout, parallel=s.parallel)
         s.say(f"OUTMOD: {path}{shape} (values only: the model or the masks changed since the last FIT)")
 
 
@@ -145,6 +146,7 @@ def cmd_lose(s: Session, args: list[str], line: Line) -> None:
     for n in names:
         s.values.pop(n, None)
     s.fixed -= set(names)
+    s.parallel -= set(names)
     s.stale = True
     s.say(f"LOSE: in use now {' '.join(s.terms) or 'none'}")
 
@@ -345,6 +347,7 @@ def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
         s.say("(& marks the terms FAUTO added)")
         s.terms = [t.name.upper() for t in result.model.terms]
         s.values = {n: float(result.model.get(n)) for n in s.terms}
+        s.parallel = (s.parallel | {n.upper() for n in result.added}) & set(s.terms)
     s.fixed &= set(s.terms)
     s.stale = True
 

@@ -62,6 +62,8 @@ class Session:
         terms: the terms in use, in order (upper-case TPOINT names).
         values: each term's value, radians (terms lost keep no value).
         fixed: names of fixed terms.
+        parallel: names of the terms flagged ``&`` (added by FAUTO, or so flagged in the
+            model file INMOD read); OUTMOD writes the flag back.
         masked: ``(n,)`` bool, masked observations of the run.
         result: the last FIT's :class:`pointax.FitResult` (None before one).
         stale: whether the model or the masks changed since that FIT.
@@ -88,6 +90,7 @@ class Session:
     terms: list[str] = dataclasses.field(default_factory=list)
     values: dict[str, float] = dataclasses.field(default_factory=dict)
     fixed: set[str] = dataclasses.field(default_factory=set)
+    parallel: set[str] = dataclasses.field(default_factory=set)
     masked: np.ndarray | None = None
     result: Any = None
     stale: bool = True
