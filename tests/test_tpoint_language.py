@@ -1,5 +1,6 @@
 """TPOINT's command language as observatories write it (issue 27): procedure files in
-the shape of MMT's bino.procs, every construct they use, on the shared MMT run.
+the shape of MMT's public bino.procs (not copied: its repository has no licence), every
+construct they use, on the shared MMT run.
 
 Reference: tests/tpoint_numpy.py (TPOINT's terms, the rigorous residuals, one
 Gauss-Newton step), here with fixed terms: each model file the procedure writes is
@@ -363,75 +364,79 @@ def test_pltz_and_gc_forms(tmp_path):
         run_text(runner, "PROC", tmp_path)
 
 
-# --------------------------------------------------------------------------- (4) bino.procs
+# --------------------------------------------------------------------------- (4) a bino.procs-shaped file
 
-BINO_PROCS = """\
-PROC BINO
-    indat "binoraw.dat"
-    USE IA IE NPAE CA AN AW TF TX
-    FIT
+# Written for this test in the shape of MMT's public bino.procs (whose repository has no
+# licence, so its text is not copied here): a run procedure that fits, masks, adds a
+# harmonic and writes a model file and a nine-panel page after each step, and a plot
+# procedure whose PROC line carries free text, with a bare GC, CAPT OFF / ON switches,
+# PLTZ panels and GSCAT with TPOINT's option.
+SHAPED_PROCS = """\
+PROC STEPS
+    indat "run copy.dat"
+    use ia ie npae ca an aw tf tx
+    fit
     call A9
-    gc b all_data.ps
-    outmod all_data.mod
-    MASK R > 6.0
-    FIT
+    gc b step1.ps
+    outmod step1.mod
+    mask r > 6
+    fit
     call A9
-    gc b mask_r_gt_6.ps
-    outmod mask_r_gt_5.mod
-    USE HESA
-    FIT
+    gc b step2.ps
+    outmod step2.mod
+    use hesa
+    fit
     call A9
-    gc b add_hesa.ps
-    outmod add_hesa.mod
-    MASK R > 2.0
-    FIT
+    gc b step3.ps
+    outmod step3.mod
+    mask r > 2
+    fit
     call A9
-    gc b masked_hesa.ps
-    outmod masked_hesa.mod
+    gc b step4.ps
+    outmod step4.mod
 RETURN
 
-PROC A9   (9 favourite plots for an altaz)
+PROC A9   nine residual plots for an alt-az mount (free text after the name)
     CAPT OFF
     GC
     CLRNG OFF
     PLTZ TL
     G S A
     PLTZ TC
-    G Z A
-    PLTZ TR
-    G V A
-    PLTZ CL
     G S Z
-    PLTZ CC
+    PLTZ TR
+    G Z A
+    PLTZ CL
     G Z Z
+    PLTZ CC
+    G V A
     PLTZ CR
     GAM Z
     PLTZ BL
     GSCAT A
-    PLTZ BR
-    GSMAP
-    CAPT ON
     PLTZ BC
     GDIST
+    CAPT ON
+    PLTZ BR
+    GSMAP
     CLRNG ON
     PLTZ
 RETURN
 """
 
 
-def test_real_bino_procs_runs(mmt_run, tmp_path, capsys):
-    """MMT's bino.procs as written (its INDAT names binoraw.dat: the MMT run copied
-    there), then CALL BINO: four model files and four nine-panel pages, the last fit on
-    the stars MASK R > 2 left."""
-    shutil.copy(mmt_run, tmp_path / "binoraw.dat")
-    procs = write(tmp_path, "bino.procs", BINO_PROCS)
-    call = write(tmp_path, "call.ptp", "call bino\n")
+def test_bino_procs_shaped_file_runs(mmt_run, tmp_path, capsys):
+    """A procedure file in the shape of MMT's bino.procs (a quoted INDAT of a name with
+    a blank, the MMT run copied there), then CALL STEPS: four model files and four
+    nine-panel pages, the last fit on the stars MASK R > 2 left."""
+    shutil.copy(mmt_run, tmp_path / "run copy.dat")
+    procs = write(tmp_path, "steps.procs", SHAPED_PROCS)
+    call = write(tmp_path, "call.ptp", "call steps\n")
     assert main(["tpoint", "--azimuth", "S-E", str(procs), str(call)]) == 0
     out = capsys.readouterr().out
-    for name in ("all_data", "mask_r_gt_5", "add_hesa", "masked_hesa"):
-        assert ref.read_model_values(tmp_path / f"{name}.mod")[0]["IA"] == pytest.approx(1209.3, abs=0.5)
-    for name in ("all_data", "mask_r_gt_6", "add_hesa", "masked_hesa"):
-        assert (tmp_path / f"{name}.ps").read_bytes()[:4] == b"%!PS"
-    values, _, n, rms = ref.read_model_values(tmp_path / "masked_hesa.mod")
+    for k in range(1, 5):
+        assert ref.read_model_values(tmp_path / f"step{k}.mod")[0]["IA"] == pytest.approx(1209.3, abs=0.5)
+        assert (tmp_path / f"step{k}.ps").read_bytes()[:4] == b"%!PS"
+    values, _, n, rms = ref.read_model_values(tmp_path / "step4.mod")
     assert "HESA" in values and 70 < n < 80 and rms < 0.95
     assert out.count("GSCAT A: drawn in panel BL") == 4 and "not implemented" not in out
