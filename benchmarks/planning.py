@@ -77,13 +77,13 @@ import numpy as np
 
 import pointax as px
 from pointax import planning as pl
-from pointax.batch import batched_observations
+from pointax.fitting.batch import batched_observations
 from pointax.planning.accuracy import invert_information
 from pointax.planning.design import design_bound
 from pointax.fitting.residuals import residuals
-from pointax.observations import Observations
-from pointax.rotations import angle_between, offset_direction
-from pointax.units import ARCSEC
+from pointax.core.observations import Observations
+from pointax.core.rotations import angle_between, offset_direction
+from pointax.core.units import ARCSEC
 
 FITTER = "gn"  # or "fit_batch" (--fitter)
 GN_STEPS = 4

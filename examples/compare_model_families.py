@@ -13,7 +13,7 @@ with the paper's exact rotation model (eq 15) and encoder terms (eqs 16-17):
 * Gaussian noise of 4.1" on the L encoder and 2.0" on the B encoder.
 
 146 stars above 25 deg elevation are planned at a site near Changchun (the authors'
-observatory) on one March night (:mod:`pointax.stars`: Hipparcos bright stars, apparent
+observatory) on one March night (:mod:`pointax.sky.stars`: Hipparcos bright stars, apparent
 places through astropy with refraction, spread evenly over the sky), 68 drawn at random
 for fitting and 78 kept for validation, as in the paper. Four families are fitted to the
 68 (:func:`pointax.analysis.compare`): the paper's basic physical model (eqs 3-4), its

@@ -2,68 +2,68 @@
 
 Mount models are chains of rotations with pluggable error terms; fits use optimistix
 with Jacobians from JAX and report TPOINT's statistics. Everything numerical is pure
-JAX in float64 (see :mod:`pointax._x64` for how float64 is switched on).
+JAX in float64 (see :mod:`pointax.core.precision` for how float64 is switched on).
 
     import pointax as px
     run = px.io.read_tpoint("examples/data/mmt_20210821.dat", azimuth="S-E")
     model = px.AltAz(px.terms.tpoint("IA IE NPAE CA AN AW TF TX"), azimuth=run.azimuth)
     print(px.fit(model, run).report())
 
-The names below load from their modules on first use (PEP 562, :mod:`pointax._lazy`):
+The names below load from their modules on first use (PEP 562, :mod:`pointax.core.lazy`):
 ``import pointax`` imports no numerical library, and astropy (:mod:`pointax.sky`,
-:mod:`pointax.stars`), torch (:mod:`pointax.sunsensor`), dask
-(:mod:`pointax.distributed`) and the solvers load when something needs them.
+:mod:`pointax.sky.stars`), torch (:mod:`pointax.sunsensor`), dask
+(:mod:`pointax.fitting.distributed`) and the solvers load when something needs them.
 """
 
-from ._lazy import lazy_namespace
+from .core.lazy import lazy_namespace
 
 __version__ = "0.1.0"
 
 # Public name -> the module that defines it.
 _EXPORTS = {
-    "fit_batch": "batch",
-    "site_result": "batch",
-    "site_statuses": "batch",
-    "stack_observations": "batch",
-    "Command": "command",
-    "command": "command",
-    "command_reflector": "command",
-    "reflect_normal": "command",
+    "fit_batch": "fitting.batch",
+    "site_result": "fitting.batch",
+    "site_statuses": "fitting.batch",
+    "stack_observations": "fitting.batch",
+    "Command": "core.inverse",
+    "command": "core.inverse",
+    "command_reflector": "core.inverse",
+    "reflect_normal": "core.inverse",
     "Comparison": "analysis",
     "ModelBuild": "analysis",
     "build_model": "analysis",
     "Fauto": "analysis",
     "fauto": "analysis",
     "compare": "analysis",
-    "enable_compilation_cache": "compilation_cache",
+    "enable_compilation_cache": "fitting.compilation_cache",
     "FitOptions": "fitting",
     "FitResult": "fitting",
     "fit": "fitting",
     "residuals": "fitting",
-    "HeliostatCalibration": "heliostat",
-    "calibrate_heliostat": "heliostat",
-    "heliostat_model": "heliostat",
-    "AltAz": "mount_models",
-    "Model": "model",
-    "ParameterInfo": "model",
-    "Turntable": "mount_models",
-    "XY": "mount_models",
-    "XY_FAMILIES": "mount_models",
-    "Equatorial": "mount_models",
-    "xy_family": "mount_models",
-    "AZIMUTH_CONVENTIONS": "mounts",
-    "AltAzMount": "mounts",
-    "EquatorialMount": "mounts",
-    "HeliostatMount": "mounts",
-    "Mount": "mounts",
-    "SphericalMount": "mounts",
-    "TurntableMount": "mounts",
-    "XYMount": "mounts",
-    "fit_network": "network",
-    "Observations": "observations",
-    "SharedFit": "shared",
-    "fit_shared": "shared",
-    "simulate": "simulate",
+    "HeliostatCalibration": "analysis.heliostat",
+    "calibrate_heliostat": "analysis.heliostat",
+    "heliostat_model": "analysis.heliostat",
+    "AltAz": "terms.model_factories",
+    "Model": "core.model",
+    "ParameterInfo": "core.model",
+    "Turntable": "terms.model_factories",
+    "XY": "terms.model_factories",
+    "XY_FAMILIES": "terms.model_factories",
+    "Equatorial": "terms.model_factories",
+    "xy_family": "terms.model_factories",
+    "AZIMUTH_CONVENTIONS": "core.mounts",
+    "AltAzMount": "core.mounts",
+    "EquatorialMount": "core.mounts",
+    "HeliostatMount": "core.mounts",
+    "Mount": "core.mounts",
+    "SphericalMount": "core.mounts",
+    "TurntableMount": "core.mounts",
+    "XYMount": "core.mounts",
+    "fit_network": "analysis.network",
+    "Observations": "core.observations",
+    "SharedFit": "fitting.shared",
+    "fit_shared": "fitting.shared",
+    "simulate": "core.simulate",
     "Candidates": "planning",
     "Plan": "planning",
     "PredictedAccuracy": "planning",
@@ -71,15 +71,28 @@ _EXPORTS = {
     "predicted_accuracy": "planning",
     "Term": "terms",
     "param": "terms",
-    "arcsec": "units",
-    "deg": "units",
-    "rad": "units",
-    "LeaveOneOut": "validate",
-    "leave_one_out": "validate",
+    "arcsec": "core.units",
+    "deg": "core.units",
+    "rad": "core.units",
+    "LeaveOneOut": "fitting.cross_validation",
+    "leave_one_out": "fitting.cross_validation",
 }
 
 # Submodules exported as themselves.
-_SUBMODULES = ("analysis", "distributed", "fitting", "io", "network", "planning", "rotations", "sky", "stars", "terms", "trig", "units")
+_SUBMODULES = {
+    "analysis": "analysis",
+    "distributed": "fitting.distributed",
+    "fitting": "fitting",
+    "io": "io",
+    "network": "analysis.network",
+    "planning": "planning",
+    "rotations": "core.rotations",
+    "sky": "sky",
+    "stars": "sky.stars",
+    "terms": "terms",
+    "trig": "core.trig",
+    "units": "core.units",
+}
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)
 

@@ -143,7 +143,7 @@ def test_stack_and_argument_errors():
 def test_small_batches_share_one_compilation(network):
     """Batches smaller than a chunk are padded to a power of two: 9 and 13 sites (both
     16) reuse one compiled fit, and the padding changes no result."""
-    from pointax import batch as batch_module
+    from pointax.fitting import batch as batch_module
 
     sites, _ = network
     # (five steps: the site data and the steps are one compiled call)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax import batch
-from pointax.simulate import encoder_grid
+from pointax.fitting import batch as batch
+from pointax.core.simulate import encoder_grid
 
 TPOINT = "IA IE CA AN AW TF"  # a small model: the guard is structural, the compilation short
 

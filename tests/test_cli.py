@@ -227,7 +227,7 @@ def test_fit_gpoint_rejects_tpoint_only_options(capsys):
 
 
 def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
-    from pointax.compilation_cache import default_cache_dir, enable_compilation_cache
+    from pointax.fitting.compilation_cache import default_cache_dir, enable_compilation_cache
 
     monkeypatch.setenv("POINTAX_JAX_CACHE", "")
     assert default_cache_dir() is None and enable_compilation_cache() is None

@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pointax as px
-from pointax.command import Command, command, command_reflector, reflect_normal
-from pointax.rotations import angle_between, azel_to_enu
+from pointax.core.inverse import Command, command, command_reflector, reflect_normal
+from pointax.core.rotations import angle_between, azel_to_enu
 
 DEG = np.pi / 180
 ARCSEC = DEG / 3600
@@ -293,7 +293,7 @@ def test_float64_without_global_x64():
         """
         import jax, jax.numpy as jnp, numpy as np
         import pointax as px
-        from pointax.command import command
+        from pointax.core.inverse import command
         assert not jax.config.jax_enable_x64
         model = px.AltAz(px.terms.tpoint("IA CA", form="rigorous"))
         c = command(model, [0.3, 0.4, np.sqrt(0.75)])

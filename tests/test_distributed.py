@@ -17,7 +17,7 @@ distributed = pytest.importorskip("distributed")
 
 from test_io_sun import simulated_site  # noqa: E402
 
-from pointax.distributed import fit_batch_distributed  # noqa: E402
+from pointax.fitting.distributed import fit_batch_distributed  # noqa: E402
 
 CHUNK = 4
 # Any solver shows the point; Gauss-Newton compiles fastest (three compilations here:
@@ -109,7 +109,7 @@ def test_fit_network_on_the_cluster_equals_local(client, tmp_path, single_proces
     the workers have compiled already), one unreadable; per-site JSON identical."""
     from conftest import EXAMPLES
 
-    from pointax.network import fit_network
+    from pointax.analysis.network import fit_network
 
     network = EXAMPLES / "data" / "network"
     rows = "".join(f"ts-0{k},{network / f'ts-0{k}.txt'},sun\n" for k in range(1, 7))

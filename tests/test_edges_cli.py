@@ -16,7 +16,7 @@ import pytest
 
 import pointax as px
 from pointax import planning as pl
-from pointax.units import ARCSEC, DEG
+from pointax.core.units import ARCSEC, DEG
 
 STARS = ["plan", "--site", "31.96,-111.60,2100", "--time", "2026-03-01T05:00"]
 SUN = ["plan", "--sun", "--site", "40,116.3,50", "--time", "2026-03-01"]

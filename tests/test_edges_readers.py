@@ -2,7 +2,7 @@
 refusals without place or cause.
 
 * units: a value whose unit a reader assumes is checked for plausibility in it
-  (:mod:`pointax.units`), a header-less offsets table in degrees is refused, a gpoint
+  (:mod:`pointax.core.units`), a header-less offsets table in degrees is refused, a gpoint
   model value without a unit suffix beyond a pointing term's size is refused;
 * contradictions: duplicate JSON keys, a row whose raw and observed positions lie
   degrees apart (TheSkyX's half-flipped rows), a misspelt mount option;

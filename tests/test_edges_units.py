@@ -1,6 +1,6 @@
 """Issue 30, units at the Python API's edges: a value whose unit pointax assumes
 (radians, East-North-Up unit vectors) is checked for plausibility where it enters
-(:func:`pointax.units.check_angle_radians`, :func:`pointax.units.check_unit_vectors`),
+(:func:`pointax.core.units.check_angle_radians`, :func:`pointax.core.units.check_unit_vectors`),
 and a mistake is named with the value, what was expected and the likely unit."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import pointax as px
 from pointax.io import InputWarning
-from pointax.units import (
+from pointax.core.units import (
     ImplausibleValueError,
     angle_radians_problem,
     check_unit_vectors,
@@ -114,7 +114,7 @@ def test_command_check_leaves_vectors_it_normalises_alone():
 
 def test_reader_boundary_names_the_file_of_a_check_in_another_module(tmp_path):
     from pointax.io.errors import file_errors
-    from pointax.units import check_angle_radians
+    from pointax.core.units import check_angle_radians
 
     @file_errors(px.io.FileFormatError)
     def read_angle(path):

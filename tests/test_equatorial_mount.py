@@ -20,8 +20,8 @@ from astropy.time import Time
 from astropy.utils import iers
 
 import pointax as px
-from pointax.mount_models import Equatorial
-from pointax.mounts import EquatorialMount
+from pointax.terms.model_factories import Equatorial
+from pointax.core.mounts import EquatorialMount
 
 ARCSEC = np.pi / 648000
 

@@ -21,7 +21,7 @@ import pytest
 import pointax as px
 from pointax.fitting.residuals import residuals
 from pointax.terms import equatorial as eq
-from pointax.terms.base import SkyPoint
+from pointax.core.term import SkyPoint
 
 ARCSEC = np.pi / 648000
 s, c, t = np.sin, np.cos, np.tan

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax.simulate import encoder_grid
+from pointax.core.simulate import encoder_grid
 
 ARCSEC = np.pi / 648000
 TRUE = {"IA": 40.0, "IE": -12.0, "NPAE": 5.0, "CA": -8.0, "AN": 3.0, "AW": -6.0, "TF": 9.0}

@@ -175,7 +175,7 @@ def test_write_model_cli_and_api_give_the_same_file(tmp_path):
 
 def test_report_listing_says_which_azimuth():
     pytest.importorskip("matplotlib")
-    from pointax.report import fit_report
+    from pointax.plots.report import fit_report
 
     run = px.io.read_tpoint(MMT_DAT, azimuth="S-E")
     result = px.fit(run.model(px.terms.tpoint("IA IE NPAE CA AN AW TF TX")), run)

@@ -16,8 +16,8 @@ from conftest import MMT_DAT
 
 import pointax as px
 from pointax.fitting import FitOptions, fit_model, structure
-from pointax.terms.base import angle_pair
-from pointax.units import ARCSEC
+from pointax.core.term import angle_pair
+from pointax.core.units import ARCSEC
 
 TERMS = "IA IE NPAE CA AN AW TF TX".split()
 
@@ -188,7 +188,7 @@ def test_false_linearity_claims_are_refused(term, why):
 def test_library_claims_hold_numerically():
     """The library's linear terms skip the checks when a model is built (they are linear
     and neutral at 0 by construction); here the checks run on every one of them."""
-    from pointax.terms.base import _linearity_error
+    from pointax.core.term import _linearity_error
 
     terms = px.terms.tpoint("IA IE NPAE CA AN AW TF TX ACEC ACES ECEC ECES PAA1 PEE1 HACA2 HESE4 HSCA5CE8")
     assert all(t.linear_by_construction and t.neutral_at_zero for t in terms)

@@ -14,7 +14,7 @@ import pytest
 
 import pointax as px
 from pointax.cli import main
-from pointax.rotations import azel_to_enu_numpy
+from pointax.core.rotations import azel_to_enu_numpy
 
 from conftest import MMT_MOD
 

@@ -136,7 +136,7 @@ def test_sun_enu_from_paint_hand_cases(azimuth, elevation, expected):
 
 
 def test_sun_enu_matches_pointax_azimuth_convention():
-    from pointax.rotations import azel_to_enu
+    from pointax.core.rotations import azel_to_enu
 
     rng = np.random.default_rng(3)
     az, el = rng.uniform(-180, 180, 100), rng.uniform(-10, 90, 100)
@@ -710,7 +710,7 @@ def test_schema1_run_reports_layout_and_fits(ac43):
     mrad, RMS 12.7), mrad-level after a fit, and hundreds of mrad if (0, 0, 1) were
     taken literally as the current chain's orientation."""
     import pointax as px
-    from pointax.heliostat import _errors
+    from pointax.analysis.heliostat import _errors
 
     r = read_paint(ac43)  # the tower file is in the parent folder
     assert r.layout == paint.LAYOUT_SCHEMA1 and len(r) == 2

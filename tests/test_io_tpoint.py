@@ -33,7 +33,7 @@ from pointax.io import (  # noqa: E402
     read_tpoint,
     write_model,
 )
-from pointax.rotations import azel_to_enu  # noqa: E402
+from pointax.core.rotations import azel_to_enu  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DAT = ROOT / "examples" / "data" / "mmt_20210821.dat"

@@ -86,7 +86,7 @@ def test_theskyx_run_is_read_with_its_pier_sides(equatorial_dir):
     assert run.flipped[0] and not run.flipped[3]  # fourth record: +82 59 13.276
     # The flipped reading (H, D) points at (H - 12 h, 180 deg - D): TPOINT's rule, here
     # through the mount's own forward model.
-    from pointax.mounts import EquatorialMount
+    from pointax.core.mounts import EquatorialMount
 
     mount = EquatorialMount(run.latitude)
     flipped = np.flatnonzero(run.flipped)

@@ -14,7 +14,7 @@ import tpoint_numpy as ref
 from conftest import MMT_DAT
 
 from pointax.cli import main
-from pointax.listing import LISTING_KEYS
+from pointax.analysis.listing import LISTING_KEYS
 
 EIGHT = "IA IE NPAE CA AN AW TF TX".split()
 
@@ -94,8 +94,8 @@ def test_entries_reuse_the_fit_and_compile_at_most_once():
     import jax
 
     import pointax as px
-    from pointax.listing import observation_entries
-    from pointax.masking import all_residuals
+    from pointax.analysis.listing import observation_entries
+    from pointax.fitting.masking import all_residuals
 
     run = px.io.read_tpoint(MMT_DAT, azimuth="S-E")
     model = px.AltAz(px.terms.tpoint(" ".join(EIGHT)), azimuth=run.azimuth)

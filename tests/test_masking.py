@@ -15,7 +15,7 @@ import tpoint_numpy as ref
 from conftest import MMT_DAT
 
 from pointax.cli import main
-from pointax.masking import format_rows, parse_rows
+from pointax.fitting.masking import format_rows, parse_rows
 
 EIGHT = "IA IE NPAE CA AN AW TF TX".split()
 RAYLEIGH_MEDIAN = np.sqrt(2 * np.log(2))  # median of a 2-D Gaussian's norm, in sigmas

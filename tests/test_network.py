@@ -20,7 +20,7 @@ from conftest import EXAMPLES, MMT_DAT, MMT_MOD
 import pointax as px
 from pointax.cli import main as pointax_main
 from pointax.cli.fit_network import add_fit_network_parser, run_fit_network
-from pointax.network import (
+from pointax.analysis.network import (
     ManifestError,
     ProgressBar,
     fit_network,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax.masking import all_residuals
+from pointax.fitting.masking import all_residuals
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data" / "mmt_20210821.dat"
 TERMS = "IA IE NPAE CA AN AW TF TX"
@@ -49,7 +49,7 @@ def test_loo_matches_refits(run, form, residual_form, rtol):
     assert float(result.loo_rms) == pytest.approx(rms, rel=rtol)
     # Out of sample is worse than in sample, and not by much on a good run.
     assert float(result.sky_rms) < float(result.loo_rms) < 1.2 * float(result.sky_rms)
-    assert np.all(loo[~used] == 0.0)  # not computed in the fit (pointax.masking.fit_residuals has them)
+    assert np.all(loo[~used] == 0.0)  # not computed in the fit (pointax.fitting.masking.fit_residuals has them)
 
 
 def test_loo_in_report_and_json(run):

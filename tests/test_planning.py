@@ -17,9 +17,9 @@ import pointax as px
 from pointax import planning as pl
 from pointax.planning.design import design_scores, exchange_design, greedy_design
 from pointax.planning.ordering import order_path, path_length, slew_matrix
-from pointax.batch import batched_observations
-from pointax.rotations import angle_between, azel_to_enu_numpy, offset_direction
-from pointax.units import ARCSEC, DEG
+from pointax.fitting.batch import batched_observations
+from pointax.core.rotations import angle_between, azel_to_enu_numpy, offset_direction
+from pointax.core.units import ARCSEC, DEG
 
 TERMS = "IA IE CA NPAE AN AW"
 

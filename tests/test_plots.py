@@ -227,7 +227,7 @@ def test_files_written_are_valid(mmt, tmp_path):
 
 
 def test_heliostat_figure_draws_each_series():
-    from pointax.heliostat import HeliostatCalibration
+    from pointax.analysis.heliostat import HeliostatCalibration
     from pointax.plots import heliostat_figure
 
     rng = np.random.default_rng(1)
@@ -247,7 +247,7 @@ def test_heliostat_figure_draws_each_series():
 
 
 def test_network_figure_shows_each_sites_rms_and_status():
-    from pointax.network import NetworkResult
+    from pointax.analysis.network import NetworkResult
     from pointax.plots import network_figure
 
     sites = (
@@ -308,7 +308,7 @@ def test_equatorial_fit_is_drawn_in_declination_axes_and_on_the_sky():
     draws d dec against the hour angle, and the sky map's arrows are the offset from
     where the model points to the star, resolved on the horizon (numpy, from the
     directions themselves)."""
-    from pointax.mount_models import Equatorial
+    from pointax.terms.model_factories import Equatorial
 
     lat = np.radians(31.7)
     rng = np.random.default_rng(3)

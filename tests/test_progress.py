@@ -1,4 +1,4 @@
-"""Progress bars (pointax.progress, tqdm): drawn on a terminal only, silent in pipes,
+"""Progress bars (pointax.fitting.progress, tqdm): drawn on a terminal only, silent in pipes,
 logs and with --quiet; the long-running functions count their work."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 
 from conftest import MMT_DAT
 
-from pointax.progress import progress_bar
+from pointax.fitting.progress import progress_bar
 
 
 class Terminal(io.StringIO):
@@ -56,9 +56,9 @@ def _fit_network_args(quiet: bool):
 
 @pytest.mark.parametrize("quiet, terminal, drawn", [(False, True, True), (False, False, False), (True, True, False)])
 def test_fit_network_draws_its_bar_on_a_terminal_unless_quiet(monkeypatch, quiet, terminal, drawn):
-    import pointax.network
+    import pointax.analysis.network
     from pointax.cli.fit_network import run_fit_network
-    from pointax.network import NetworkResult
+    from pointax.analysis.network import NetworkResult
 
     def fake_fit_network(manifest, progress=False, **options):
         if progress:
@@ -67,7 +67,7 @@ def test_fit_network_draws_its_bar_on_a_terminal_unless_quiet(monkeypatch, quiet
         site = {"site": "a", "format": "tpoint", "status": "converged", "reason": "", "sky_rms_arcsec": 1.0}
         return NetworkResult(str(manifest), (site,))
 
-    monkeypatch.setattr(pointax.network, "fit_network", fake_fit_network)
+    monkeypatch.setattr(pointax.analysis.network, "fit_network", fake_fit_network)
     err = Terminal() if terminal else io.StringIO()
     code = run_fit_network(_fit_network_args(quiet), stdout=io.StringIO(), stderr=err)
     assert code == 0

@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import pointax as px
 from pointax.io import FileFormatError, InputWarning
-from pointax.rotations import azel_to_enu_numpy
+from pointax.core.rotations import azel_to_enu_numpy
 
 from conftest import MMT_DAT, MMT_MOD, SHARED_DATA
 
@@ -175,7 +175,7 @@ def _model(values):
 @settings(max_examples=8, deadline=None)
 @given(values=values_arcsec)
 def test_fit_of_exact_simulated_data_gives_the_model_back(values):
-    from pointax.simulate import encoder_grid
+    from pointax.core.simulate import encoder_grid
 
     truth = _model(values)
     obs = px.simulate(truth, encoder_grid(n_az=8, elevations_deg=(15, 30, 45, 60, 75)))

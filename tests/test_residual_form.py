@@ -18,9 +18,9 @@ from test_batch import _padded
 from test_conformance import _ols_reference
 
 import pointax as px
-from pointax.site import is_affine, site_data, site_residuals
-from pointax.site_derivatives import residual_function
-from pointax.terms.base import angle_pair
+from pointax.fitting.fast_evaluation import is_affine, site_data, site_residuals
+from pointax.fitting.fast_jacobian import residual_function
+from pointax.core.term import angle_pair
 
 ARCSEC = np.pi / 648000
 TERMS = "IA IE NPAE CA AN AW TF TX"

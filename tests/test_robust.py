@@ -18,7 +18,7 @@ import scipy.optimize
 
 import pointax as px
 from pointax.fitting import LOSSES, FitOptions, free_mask, least_squares, robust_sigma
-from pointax.simulate import encoder_grid
+from pointax.core.simulate import encoder_grid
 
 ARCSEC = math.pi / 648000
 NAMES = "IA IE NPAE CA AN AW TF TX"

@@ -1,4 +1,4 @@
-"""Tests for pointax.rotations and pointax.mounts.AltAzMount.
+"""Tests for pointax.core.rotations and pointax.core.mounts.AltAzMount.
 
 Every expected value comes from an independent source: scipy's Rotation, astropy's
 AltAz frame, numpy closed forms (gnomonic projection and its inverse, Snyder 1987),
@@ -25,7 +25,7 @@ from hypothesis import strategies as st  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
 from pointax import rotations as rot  # noqa: E402
-from pointax.mounts import AZIMUTH_CONVENTIONS, AltAzMount  # noqa: E402
+from pointax.core.mounts import AZIMUTH_CONVENTIONS, AltAzMount  # noqa: E402
 
 PI = math.pi
 DEG = PI / 180.0

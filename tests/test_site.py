@@ -1,5 +1,5 @@
-"""The structured evaluation of a site (pointax.site), its derivatives
-(pointax.site_derivatives) and the small normal-equation solver: references are the
+"""The structured evaluation of a site (pointax.fitting.fast_evaluation), its derivatives
+(pointax.fitting.fast_jacobian) and the small normal-equation solver: references are the
 plain per-observation model (pointax.residuals), jax.jacfwd of it, finite differences,
 and numpy's least squares."""
 
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax import entries
-from pointax import normal_equations as ne
-from pointax import site
-from pointax.rotations import rot_z
-from pointax.simulate import encoder_grid
-from pointax.site import site_data, site_residuals
-from pointax.site_derivatives import residual_columns, residual_function
+from pointax.fitting import matrix_entries as entries
+from pointax.fitting import normal_equations as ne
+from pointax.fitting import fast_evaluation as site
+from pointax.core.rotations import rot_z
+from pointax.core.simulate import encoder_grid
+from pointax.fitting.fast_evaluation import site_data, site_residuals
+from pointax.fitting.fast_jacobian import residual_columns, residual_function
 
 RNG = np.random.default_rng(7)
 TPOINT8 = "IA IE NPAE CA AN AW TF TX"

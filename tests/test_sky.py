@@ -23,7 +23,7 @@ from astropy.time import Time
 from astropy.utils import iers
 
 from pointax import rotations as rot
-from pointax import sky
+from pointax.sky import sun as sky
 
 pvlib_spa = pytest.importorskip("pvlib.spa")
 

@@ -1,4 +1,4 @@
-"""Tests for pointax.stars: catalogue, apparent places, planner, star-run simulator.
+"""Tests for pointax.sky.stars: catalogue, apparent places, planner, star-run simulator.
 
 References, each independent of the code under test:
 - textbook J2000 places of 52 named stars (rounded to 0.1 s and 1"), for the catalogue
@@ -31,8 +31,8 @@ from astropy.utils import iers
 
 import pointax as px
 from pointax import stars
-from pointax.rotations import azel_to_enu_numpy
-from pointax.sky import _offline_iers
+from pointax.core.rotations import azel_to_enu_numpy
+from pointax.sky.sun import _offline_iers
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 MAS = ARCSEC / 1000.0
@@ -452,7 +452,7 @@ def test_simulator_drives_an_xy_mount(plan):
     # L = atan2(East, Up), B = asin(North) for each star (closed form, written here).
     xy_mount = getattr(px.mounts, "XYMount", None)
     if xy_mount is None:
-        pytest.skip("pointax.mounts.XYMount is not in this checkout")
+        pytest.skip("pointax.core.mounts.XYMount is not in this checkout")
     model = px.Model(xy_mount(), ())
     run = stars.simulate_star_run(model, plan, 0.0)
     e, n, up = plan.direction.T

@@ -73,7 +73,7 @@ def test_every_public_name_resolves_to_its_module_attribute():
     for name in pointax.__all__:
         value = getattr(pointax, name)
         if name in pointax._SUBMODULES:
-            assert value is importlib.import_module(f"pointax.{name}")
+            assert value is importlib.import_module(f"pointax.{pointax._SUBMODULES[name]}")
         else:
             assert value is getattr(importlib.import_module(f"pointax.{pointax._EXPORTS[name]}"), name), name
     assert set(pointax.__all__) <= set(dir(pointax))
@@ -81,14 +81,14 @@ def test_every_public_name_resolves_to_its_module_attribute():
 
 
 def test_functions_named_like_their_modules_stay_functions():
-    """``pointax.command`` is the function even after ``pointax/command.py`` is imported
-    by name (as the eager ``from .command import command`` left it), and so on."""
+    """``pointax.terms.tpoint`` is the function even after ``pointax/terms/tpoint.py`` is
+    imported by name (as an eager ``from .tpoint import tpoint`` would leave it), and so on."""
     code = (
-        "import pointax, pointax.fitting, pointax.command, pointax.simulate\n"
+        "import pointax, pointax.fitting, pointax.core.inverse, pointax.core.simulate, pointax.terms.tpoint\n"
         "import pointax.sunsensor.centroid\n"
         "from pointax.sunsensor import centroid\n"
         "assert callable(pointax.fit) and pointax.fit.__module__.startswith('pointax.'), pointax.fit\n"
-        "assert all(not isinstance(f, type(pointax)) for f in (pointax.fit, pointax.command, pointax.compare, pointax.simulate, centroid))\n"
+        "assert all(not isinstance(f, type(pointax)) for f in (pointax.fit, pointax.command, pointax.compare, pointax.simulate, pointax.terms.tpoint, centroid))\n"
         "from pointax import fit\n"
         "assert fit is pointax.fit"
     )
@@ -186,7 +186,7 @@ def test_plot_kinds_of_the_parser_equal_the_librarys():
     from pointax.cli.plot import PLOT_KINDS
     from pointax.cli.report import REPORT_KINDS
     from pointax.plots import FIT_KINDS
-    from pointax.report import REPORT_FIGURES
+    from pointax.plots.report import REPORT_FIGURES
 
     assert PLOT_KINDS == tuple(FIT_KINDS)
     assert REPORT_KINDS == REPORT_FIGURES
@@ -202,17 +202,17 @@ def test_the_light_copies_of_library_names_equal_the_library():
     import pointax.terms as terms
     from pointax.cli import choices
     from pointax.cli.centroid import METHODS
-    from pointax.command import SOLUTIONS
+    from pointax.core.inverse import SOLUTIONS
     from pointax.fitting import LOSSES, SOLVERS
     from pointax.io import FOCAL_SPOT_METHODS, RUN_FORMATS
-    from pointax.model import RESIDUAL_FORMS
-    from pointax.mounts import AZIMUTH_CONVENTIONS
+    from pointax.core.model import RESIDUAL_FORMS
+    from pointax.core.mounts import AZIMUTH_CONVENTIONS
     from pointax.io.tpoint import MOUNTS as TPOINT_MOUNTS
     from pointax.procedures.session import MOUNTS as PROCEDURE_MOUNTS
     from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
     from pointax.terms.heliostat import HELIOSTAT_DEFAULT
     from pointax.terms.sun_vector import TURNTABLE_MODELS
-    from pointax.mount_models import XY_FAMILIES
+    from pointax.terms.model_factories import XY_FAMILIES
     from pointax.terms.xy import FAMILIES
 
     assert choices.SOLVERS == tuple(SOLVERS)
@@ -250,10 +250,10 @@ def test_the_core_imports_no_particular_term():
     of the library, no astropy, no file format and no fitting code."""
     code = (
         "import sys\n"
-        "import pointax.rotations, pointax.mounts, pointax.model, pointax.terms.base\n"
+        "import pointax.core.rotations, pointax.core.mounts, pointax.core.model, pointax.core.term\n"
         "loaded = sorted(m for m in sys.modules if m.startswith('pointax.'))\n"
-        "allowed = {'pointax._lazy', 'pointax._x64', 'pointax.trig', 'pointax.units', 'pointax.rotations',\n"
-        "           'pointax.mounts', 'pointax.model', 'pointax.observations', 'pointax.terms', 'pointax.terms.base'}\n"
+        "allowed = {'pointax.core.lazy', 'pointax.core.precision', 'pointax.core.trig', 'pointax.core.units', 'pointax.core.rotations',\n"
+        "           'pointax.core.mounts', 'pointax.core.model', 'pointax.core.observations', 'pointax.core', 'pointax.core.errors', 'pointax.core.term'}\n"
         "extra = [m for m in loaded if m not in allowed]\n"
         "assert not extra and 'astropy' not in sys.modules, extra\n"
     )

@@ -25,7 +25,7 @@ from conftest import MMT_DAT
 import pointax as px
 from pointax.io import ModelTerm, TpointFormatError, format_model, read_model
 from pointax.terms import equatorial as eq
-from pointax.terms.base import SkyPoint, _linearity_error
+from pointax.core.term import SkyPoint, _linearity_error
 
 ARCSEC = np.pi / 648000
 s, c, t = np.sin, np.cos, np.tan

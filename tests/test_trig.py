@@ -1,4 +1,4 @@
-"""Tests for pointax.trig: the vectorised sine, cosine and arctangent against NumPy's
+"""Tests for pointax.core.trig: the vectorised sine, cosine and arctangent against NumPy's
 (the C library's, within half a unit in the last place for these arguments), their
 derivatives, and their behaviour on special values and other dtypes."""
 
@@ -12,8 +12,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from pointax.rotations import enu_to_azel  # noqa: E402
-from pointax.trig import atan2, sincos  # noqa: E402
+from pointax.core.rotations import enu_to_azel  # noqa: E402
+from pointax.core.trig import atan2, sincos  # noqa: E402
 
 
 def _ulps(got, expected):

@@ -96,6 +96,6 @@ def test_limits_in_degrees_as_bare_numbers_are_refused():
 
 
 def test_import_pointax_does_not_import_astropy():
-    code = "import sys, pointax, pointax.units; print('astropy' in sys.modules)"
+    code = "import sys, pointax, pointax.core.units; print('astropy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

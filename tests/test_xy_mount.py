@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax.mount_models import XY, xy_family
-from pointax.mounts import XYMount
+from pointax.terms.model_factories import XY, xy_family
+from pointax.core.mounts import XYMount
 from pointax.terms import xy
 
 ARCSEC = np.pi / 648000

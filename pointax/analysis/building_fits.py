@@ -28,8 +28,8 @@ from ..fitting import xla_options
 from ..fitting.core import linearised_change
 from ..fitting.problem import define_problem
 from ..fitting.statistics import normalised_weights, statistics
-from ..model import Model
-from ..observations import Observations
+from ..core.model import Model
+from ..core.observations import Observations
 from .folds import Scheme
 from .statistics import axis_rms
 

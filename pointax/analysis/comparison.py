@@ -25,14 +25,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._x64 import float64
+from ..core.precision import float64
 from ..fitting.residuals import residuals
 from ..fitting.result import FitResult
 from ..fitting.solo import fit
-from ..model import Model
-from ..observations import Observations
-from ..progress import progress_bar
-from ..units import ARCSEC
+from ..core.model import Model
+from ..core.observations import Observations
+from ..fitting.progress import progress_bar
+from ..core.units import ARCSEC
 from .families import family_model
 from .folds import evaluation_scheme
 from .statistics import (
@@ -324,7 +324,7 @@ def compare(
             equatorial run read by :func:`pointax.io.read_tpoint` gives its latitude).
         solver, max_steps: passed to :func:`pointax.fit`.
         progress: show a progress bar of the fits (families and folds) on standard
-            error when it is a terminal (:func:`pointax.progress.progress_bar`).
+            error when it is a terminal (:func:`pointax.fitting.progress.progress_bar`).
 
     Returns:
         A :class:`Comparison`: ``.table()`` prints it like the paper's Table 3,

@@ -15,11 +15,11 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from .. import terms as term_library
-from ..model import Model
-from ..mounts import AZIMUTH_CONVENTIONS, AltAzMount, EquatorialMount, Mount, XYMount
-from ..observations import Observations
+from ..core.model import Model
+from ..core.mounts import AZIMUTH_CONVENTIONS, AltAzMount, EquatorialMount, Mount, XYMount
+from ..core.observations import Observations
 from ..terms import xy as xy_terms
-from ..terms.base import Term
+from ..core.term import Term
 
 __all__ = ["ALTAZ_FAMILIES", "ALTAZ_HARMONICS", "EQUATORIAL_FAMILIES", "EQUATORIAL_HARMONICS", "family_model"]
 

@@ -36,11 +36,11 @@ from typing import Any
 import jax
 import numpy as np
 
-from .._x64 import float64
-from ..model import Model
-from ..mounts import AltAzMount, EquatorialMount, XYMount
+from ..core.precision import float64
+from ..core.model import Model
+from ..core.mounts import AltAzMount, EquatorialMount, XYMount
 from ..terms import xy as xy_terms
-from ..units import ARCSEC, UNITS
+from ..core.units import ARCSEC, UNITS
 from .building_fits import Builder, FitState, _steps_program
 from .families import family_model
 from ..fitting.residuals import as_observations

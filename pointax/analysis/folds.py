@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ..fitting.residuals import as_observations
-from ..observations import Observations
+from ..core.observations import Observations
 
 __all__ = ["Scheme", "evaluation_scheme", "fold_indices", "holdout_indices", "integer_at_least"]
 

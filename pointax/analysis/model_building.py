@@ -20,13 +20,13 @@ import equinox as eqx
 import jax
 import numpy as np
 
-from .._x64 import float64
+from ..core.precision import float64
 from ..fitting.residuals import residuals
-from ..model import Model
-from ..observations import Observations
-from ..progress import progress_bar
-from ..terms.base import Term
-from ..units import ARCSEC, UNITS
+from ..core.model import Model
+from ..core.observations import Observations
+from ..fitting.progress import progress_bar
+from ..core.term import Term
+from ..core.units import ARCSEC, UNITS
 from .building_fits import Builder, compiled_program
 from .families import family_model
 from .folds import evaluation_scheme, integer_at_least
@@ -230,7 +230,7 @@ def build_model(
         per_axis: as for :func:`pointax.compare` (what the RMS measures on the first axis).
         naming, form: how names resolve (:func:`family_model`).
         progress: show a progress bar (candidates screened, terms in the model) on
-            standard error when it is a terminal (:func:`pointax.progress.progress_bar`).
+            standard error when it is a terminal (:func:`pointax.fitting.progress.progress_bar`).
 
     Returns:
         :class:`ModelBuild`: the final model (fitted on the in-sample stars), the path

@@ -40,9 +40,9 @@ from typing import Any
 import numpy as np
 from jaxtyping import Float
 
-from ..mounts import Mount, SphericalMount, XYMount
-from ..observations import Observations
-from ..units import ARCSEC
+from ..core.mounts import Mount, SphericalMount, XYMount
+from ..core.observations import Observations
+from ..core.units import ARCSEC
 
 __all__ = [
     "PER_AXIS",

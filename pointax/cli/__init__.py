@@ -60,7 +60,7 @@ mirror normal is their bisector). ``#`` starts a comment. The model is a turntab
 JSON list. Exit status 0 when every direction was commanded, 1 when some were not.
 
 ``pointax fit-network`` fits every site of a network listed in a CSV manifest (see
-:mod:`pointax.network`): one batched fit per model, a progress bar and a summary on
+:mod:`pointax.analysis.network`): one batched fit per model, a progress bar and a summary on
 standard error (``--quiet``: none), per-site JSON with ``--json``.
 
 ``pointax centroid`` finds the sun in sun-sensor frames (PNG 8/16 bit, FITS, ``.npy``;
@@ -74,7 +74,7 @@ shaped like the level-mount paper's Table 3 (:func:`pointax.compare`).
 ``pointax fit`` masks rows with ``--mask 17,19-21`` (numbers from 1, file order),
 ``--mask-above ARCSEC`` (TPOINT's MASK R > x: fit, mask, refit) and flags outliers with
 ``--reject SIGMAS`` (robust fit); ``--list`` prints the residual listing and ``--json``
-has per-observation entries (:mod:`pointax.listing`, :mod:`pointax.masking`).
+has per-observation entries (:mod:`pointax.analysis.listing`, :mod:`pointax.fitting.masking`).
 
 ``pointax plan`` chooses the stars (or, with ``--sun``, the sun times) of the next
 pointing run that pin the model down best and prints them in observing order with the
@@ -90,10 +90,10 @@ a mistyped option or an unknown name is reported (exit status 2) before any nume
 library is imported: the parser is built from :mod:`pointax.cli.choices`, and each
 subcommand's module imports the library only in its ``run_*`` function.
 
-One module per subcommand: :mod:`pointax.cli.fit`, :mod:`pointax.cli.command`,
+One module per subcommand: :mod:`pointax.cli.fit`, :mod:`pointax.cli.inverse`,
 :mod:`pointax.cli.fit_network`, :mod:`pointax.cli.centroid`, :mod:`pointax.cli.compare`,
 :mod:`pointax.cli.plot` (figures of a fit, :mod:`pointax.plots`), :mod:`pointax.cli.plan` (planning a run), :mod:`pointax.cli.report` (an
-HTML report, :mod:`pointax.report`), :mod:`pointax.cli.tpoint` (TPOINT procedures).
+HTML report, :mod:`pointax.plots.report`), :mod:`pointax.cli.tpoint` (TPOINT procedures).
 
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
@@ -107,7 +107,7 @@ import argparse
 import sys
 
 from .centroid import add_centroid_parser
-from .command import add_command_parser
+from .inverse import add_command_parser
 from .common import print_warnings
 from .compare import add_compare_parser
 from .fit import add_fit_parser

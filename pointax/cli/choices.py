@@ -42,10 +42,10 @@ TERM_FORMS = ("linear", "rigorous")
 """TPOINT term forms: the keys of :data:`pointax.terms.FORMS`."""
 
 RESIDUAL_FORMS = ("sky", "tpoint")
-"""What a fit minimises: :data:`pointax.model.RESIDUAL_FORMS`."""
+"""What a fit minimises: :data:`pointax.core.model.RESIDUAL_FORMS`."""
 
 AZIMUTH_CONVENTIONS = ("N-E", "S-E", "S-W")
-"""Ways of counting azimuth: the keys of :data:`pointax.mounts.AZIMUTH_CONVENTIONS`."""
+"""Ways of counting azimuth: the keys of :data:`pointax.core.mounts.AZIMUTH_CONVENTIONS`."""
 
 BASIC_ALTAZ = ("IA", "IE", "NPAE", "CA", "AN", "AW", "TF", "TX")
 """TPOINT's eight basic alt-az terms: :data:`pointax.terms.BASIC_ALTAZ`."""
@@ -66,7 +66,7 @@ XY_FAMILIES = ("harmonic", "basic", "rotation", "linearised")
 """X-Y model families: the keys of :data:`pointax.terms.xy.FAMILIES`."""
 
 SOLUTIONS = ("nearest", "normal", "flipped")
-"""Mechanical solutions of ``pointax command``: :data:`pointax.command.SOLUTIONS`."""
+"""Mechanical solutions of ``pointax command``: :data:`pointax.core.inverse.SOLUTIONS`."""
 
 CENTROID_METHODS = ("auto", "intensity", "limb")
 """Centroid methods: :data:`pointax.sunsensor.centroid.METHODS`."""

@@ -271,7 +271,7 @@ def _comparison(args):
     if args.max_steps < 1:
         raise ValueError(f"--max-steps must be at least 1, got {args.max_steps}")
     from ..analysis import compare
-    from ..compilation_cache import enable_compilation_cache
+    from ..fitting.compilation_cache import enable_compilation_cache
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     built = _fauto_families(families, obs, args)

@@ -325,7 +325,7 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
 
     Masks: ``--mask`` rows get weight 0; with ``--mask-above`` the run is fitted, the
     observations whose on-sky residual exceeds the limit are masked as well and the
-    run is refitted (:func:`pointax.masking.mask_above`).
+    run is refitted (:func:`pointax.fitting.masking.mask_above`).
 
     Raises:
         ValueError, KeyError, OSError: for bad input (the message names the file, line
@@ -348,7 +348,7 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     columns = _columns(args)
     loss = _loss(args, fmt)
 
-    from ..compilation_cache import enable_compilation_cache
+    from ..fitting.compilation_cache import enable_compilation_cache
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     if fmt == "paint":
@@ -363,8 +363,8 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     from .. import terms as term_library
     from ..fitting import FitOptions, fit
     from ..io.load import load_run
-    from ..masking import mask_above, parse_rows
-    from ..mount_models import AltAz, Equatorial
+    from ..fitting.masking import mask_above, parse_rows
+    from ..terms.model_factories import AltAz, Equatorial
 
     if fmt == "gpoint":
         run = load_run(args.data, "gpoint")
@@ -455,7 +455,7 @@ def start_terms(args: argparse.Namespace, default, term_options: dict) -> tuple[
     else:
         from ..io.tpoint_model import read_model
         from ..io.tpoint_records import TpointFormatError
-        from ..units import ARCSEC
+        from ..core.units import ARCSEC
 
         start = read_model(path)
         file_terms = {t.name: t for t in start.terms}
@@ -492,7 +492,7 @@ def start_terms(args: argparse.Namespace, default, term_options: dict) -> tuple[
 
 def _parameter_names(term) -> list[str]:
     """A term's parameter names as :attr:`pointax.Model.parameter_names` gives them."""
-    from ..terms.base import param_fields
+    from ..core.term import param_fields
 
     fields = param_fields(term)
     return [term.name if len(fields) == 1 else f"{term.name}.{f.name}" for f in fields]
@@ -512,7 +512,7 @@ def _fit(args) -> int:
 
         write_model(args.write_model, result, layout=args.model_layout, run=outcome.run)
     if args.json:
-        from ..listing import observation_entries
+        from ..analysis.listing import observation_entries
 
         out = {
             "file": args.data,
@@ -529,7 +529,7 @@ def _fit(args) -> int:
     else:
         print(result.report())
         if args.list:
-            from ..listing import format_listing
+            from ..analysis.listing import format_listing
 
             print()
             print(format_listing(outcome.run, result, outcome.masked))
@@ -549,7 +549,7 @@ def masked_observations(outcome: FitOutcome):
     masked)."""
     import numpy as np
 
-    from ..observations import Observations
+    from ..core.observations import Observations
 
     obs = outcome.observations
     weight = np.where(outcome.masked, 0.0, np.asarray(obs.weight, np.float64))
@@ -582,7 +582,7 @@ def _check_paint_options(args) -> None:
 
 
 def _fit_paint(args, loss: str) -> FitOutcome:
-    from ..heliostat import calibrate_heliostat
+    from ..analysis.heliostat import calibrate_heliostat
     from ..io.load import load_run
 
     run = load_run(args.data, "paint", focal_spot=args.focal_spot)

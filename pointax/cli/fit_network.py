@@ -1,4 +1,4 @@
-"""``pointax fit-network``: fit every site of a network manifest (:mod:`pointax.network`)."""
+"""``pointax fit-network``: fit every site of a network manifest (:mod:`pointax.analysis.network`)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ def add_fit_network_parser(subparsers) -> argparse.ArgumentParser:
         "fit-network",
         help="fit every site of a network manifest in batched fits; per-site status and a summary",
         description="Fit every site listed in MANIFEST (CSV: site, path, format[, terms, form, residuals, azimuth, "
-        "focal_spot]; see pointax.network). Exit status 0 when every site converged, 1 when some did "
+        "focal_spot]; see pointax.analysis.network). Exit status 0 when every site converged, 1 when some did "
         "not (degenerate or failed), 2 for a bad manifest.",
     )
     p.add_argument("manifest", help="CSV manifest: one row per site (site, path, format, ...)")
@@ -48,9 +48,9 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
     if missing:
         return fail(missing)
 
-    from ..compilation_cache import enable_compilation_cache
-    from ..network import ManifestError, fit_network
-    from ..progress import progress_bar
+    from ..fitting.compilation_cache import enable_compilation_cache
+    from ..analysis.network import ManifestError, fit_network
+    from ..fitting.progress import progress_bar
 
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     client = None

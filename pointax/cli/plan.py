@@ -144,11 +144,11 @@ def _floats(text: str, count: int, option: str) -> list[float]:
 
 def _model(args, mount: str):
     from .. import terms as term_library
-    from ..mount_models import AltAz, Turntable, XY
-    from .command import parse_params
+    from ..terms.model_factories import AltAz, Turntable, XY
+    from .inverse import parse_params
 
     if mount == "heliostat":
-        from ..heliostat import heliostat_model
+        from ..analysis.heliostat import heliostat_model
         from ..io.load import load_run
 
         if not args.paint:
@@ -160,7 +160,7 @@ def _model(args, mount: str):
     elif mount == "turntable":
         model = Turntable(args.terms or "full")
     elif mount == "xy":
-        from ..mount_models import XY_FAMILIES, xy_family
+        from ..terms.model_factories import XY_FAMILIES, xy_family
 
         spec = (args.terms or "basic").strip()
         if spec in XY_FAMILIES or spec == "linearized":
@@ -252,7 +252,7 @@ def _plan(args):
         if not args.site or not args.time:
             raise ValueError("give --site LAT,LON,HEIGHT and --time ISO (or --grid for a plain grid)")
         lat, lon, height = _floats(args.site, 3, "--site")
-        from ..sky import as_time, site as make_site
+        from ..sky.sun import as_time, site as make_site
 
         site = make_site(lat, lon, height)
         time = as_time(args.time)
@@ -263,7 +263,7 @@ def _plan(args):
         limits = (az, el)
     # The options are checked: now the numerical libraries (an error above imports none).
     from ..planning import grid_candidates, plan_run, star_candidates, sun_candidates
-    from ..units import ARCSEC
+    from ..core.units import ARCSEC
 
     model = _model(args, mount)
     if args.grid:
@@ -273,7 +273,7 @@ def _plan(args):
         if mount == "heliostat":
             import numpy as np
 
-            from ..rotations import azel_to_enu_numpy
+            from ..core.rotations import azel_to_enu_numpy
 
             if args.receiver:
                 az, el = _floats(args.receiver, 2, "--receiver")

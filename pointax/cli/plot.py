@@ -75,7 +75,7 @@ def fitted_observations(outcome):
     """The observations as fitted: the run's weights with ``outcome.masked`` at 0."""
     import numpy as np
 
-    from ..observations import Observations
+    from ..core.observations import Observations
 
     obs = outcome.observations
     masked = outcome.masked

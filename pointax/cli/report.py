@@ -3,7 +3,7 @@ HTML page (fit table, statistics, warnings, plots as embedded PNG, residual list
 
     pointax report DATA [fit options] [--kind KIND ...] [--tpoint "G S A" ...] -o report.html
 
-The page loads nothing from elsewhere (:mod:`pointax.report`). A PAINT heliostat folder
+The page loads nothing from elsewhere (:mod:`pointax.plots.report`). A PAINT heliostat folder
 gets the calibration report and its per-sample error figure. Prints one line saying
 what was written. Exit status 0 for a converged fit, 1 when it did not converge (the
 page is still written), 2 for bad input or a missing matplotlib.
@@ -21,7 +21,7 @@ from .plot import PLOT_KINDS
 __all__ = ["REPORT_KINDS", "add_report_parser", "run_report"]
 
 REPORT_KINDS = ("summary", "tpoint9", "histogram")
-"""Figures in a report by default: :data:`pointax.report.REPORT_FIGURES`."""
+"""Figures in a report by default: :data:`pointax.plots.report.REPORT_FIGURES`."""
 
 _PREFIX = "pointax report"
 
@@ -64,7 +64,7 @@ def _report(args) -> int:
         commands = checked_commands(args)
     except ImportError as err:
         return error(_PREFIX, err)
-    from ..report import fit_report, heliostat_report, write_report
+    from ..plots.report import fit_report, heliostat_report, write_report
     from .fit import fit_from_args
 
     outcome = fit_from_args(args)

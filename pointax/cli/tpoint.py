@@ -63,7 +63,7 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
 def _enable_cache() -> None:
     """JAX's compilation cache ($POINTAX_JAX_CACHE; empty: off), turned on before the
     first command that computes (HELP or a bad first word never imports JAX)."""
-    from ..compilation_cache import enable_compilation_cache
+    from ..fitting.compilation_cache import enable_compilation_cache
 
     enable_compilation_cache()
 

@@ -14,13 +14,13 @@
 * :mod:`~pointax.fitting.programs`: traced and compiled fits kept on disk.
 * :mod:`~pointax.fitting.xla_options`: compiler options for the larger programs.
 
-Batched fits (:mod:`pointax.batch`) run a fixed-step fast pass on the same problem
+Batched fits (:mod:`pointax.fitting.batch`) run a fixed-step fast pass on the same problem
 definition and send the sites it does not settle to :func:`fit_model`; shared-parameter
-fits (:mod:`pointax.shared`) solve the joint problem on it; all of them take their
+fits (:mod:`pointax.fitting.shared`) solve the joint problem on it; all of them take their
 statistics from :mod:`~pointax.fitting.statistics`.
 """
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 # Public name -> the module that defines it (loaded on first use: the command line reads
 # the option names in :mod:`.options` without importing JAX).

@@ -24,8 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from ..model import Model
-from ..observations import Observations
+from ..core.model import Model
+from ..core.observations import Observations
 from .options import SOLVER_NAMES, FitOptions
 from .problem import Problem, define_problem
 from .result import SUCCESSFUL, FitResult, solver_status

@@ -1,7 +1,7 @@
 """One problem definition for every fit: what one site's observations fix, prepared
 once, and one residual function of the model's parameters.
 
-Every fit evaluates its residuals on the structured evaluation of :mod:`pointax.site`
+Every fit evaluates its residuals on the structured evaluation of :mod:`pointax.fitting.fast_evaluation`
 (nominal axis angles and their sines and cosines, the targets in the mount frame,
 TPOINT's unit sky offsets: computed once per fit, not once per step): the solo fit
 (:func:`pointax.fit`, leave-one-out, the comparison folds, TPOINT's FIT, model
@@ -18,9 +18,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
-from ..model import Model
-from ..observations import Observations
-from ..site import SiteData, site_data, site_residuals, without_pinned_singularities
+from ..core.model import Model
+from ..core.observations import Observations
+from .fast_evaluation import SiteData, site_data, site_residuals, without_pinned_singularities
 
 __all__ = ["Problem", "define_problem"]
 
@@ -29,7 +29,7 @@ class Problem(eqx.Module):
     """One site's least-squares problem (a pytree: ``vmap`` it over sites).
 
     Attributes:
-        data: what the observations fix (:class:`pointax.site.SiteData`), for the
+        data: what the observations fix (:class:`pointax.fitting.fast_evaluation.SiteData`), for the
             model structure the problem was defined with; the parameter values are not
             part of it.
     """
@@ -50,7 +50,7 @@ def define_problem(model: Model, data: Observations | Problem, free: Bool[Array,
     ``data`` (pure JAX); a :class:`Problem` is returned as it is. ``free``: ``(M,)``
     which of ``model.parameters`` the fit adjusts, if known: the others that are 0 then
     add exactly nothing, even where their term is singular
-    (:func:`pointax.site.without_pinned_singularities`)."""
+    (:func:`pointax.fitting.fast_evaluation.without_pinned_singularities`)."""
     if isinstance(data, Problem):
         return data
     # One site's fit: the smaller program of XLA's own sines and cosines (SiteData.library_trig).

@@ -1,7 +1,7 @@
 """Traced and compiled fits kept on disk between processes, so that a fresh process
 neither traces nor compiles again what an earlier one did for the same model structure.
 
-JAX's persistent compilation cache (:mod:`pointax.compilation_cache`) keeps XLA's
+JAX's persistent compilation cache (:mod:`pointax.fitting.compilation_cache`) keeps XLA's
 compiled code, but every new process still traces the fit from Python first: 2-3 s
 of the 4-5 s a fresh ``pointax fit`` took with that cache warm. Here each fit is kept
 twice, beside that cache:

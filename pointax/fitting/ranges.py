@@ -17,8 +17,8 @@ import equinox as eqx
 import jax
 import numpy as np
 
-from ..model import ParameterInfo
-from ..units import UNITS
+from ..core.model import ParameterInfo
+from ..core.units import UNITS
 
 __all__ = ["wrap_periodic", "out_of_range", "range_warning", "TWINS", "twin_note"]
 

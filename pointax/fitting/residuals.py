@@ -2,7 +2,7 @@
 
 Written per observation on :meth:`pointax.Model.mount_direction`, the plain forward
 model: the readable definition and the oracle. Fits evaluate the same residuals over a
-whole site at once (:mod:`pointax.fitting.problem`, on :mod:`pointax.site`), tested
+whole site at once (:mod:`pointax.fitting.problem`, on :mod:`pointax.fitting.fast_evaluation`), tested
 against these.
 """
 
@@ -12,9 +12,9 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..model import Model
-from ..observations import Observations
-from ..rotations import tangent_offset, wrap_pi
+from ..core.model import Model
+from ..core.observations import Observations
+from ..core.rotations import tangent_offset, wrap_pi
 
 __all__ = ["residuals", "as_observations", "check_convention"]
 

@@ -10,8 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from ..model import Model
-from ..units import ARCSEC, UNITS
+from ..core.model import Model
+from ..core.units import ARCSEC, UNITS
 from .options import SOLVER_NAMES
 
 __all__ = ["FitResult", "SUCCESSFUL", "solver_status", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_few_residuals", "too_little_data"]

@@ -15,9 +15,9 @@ import jax
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._x64 import float64
-from ..model import Model
-from ..observations import Observations
+from ..core.precision import float64
+from ..core.model import Model
+from ..core.observations import Observations
 from . import programs, xla_options
 from .core import fit_core, free_mask, restrict, result_structure
 from .options import FitOptions

@@ -27,8 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..model import Model
-from ..terms.base import Term, param_fields
+from ..core.model import Model
+from ..core.term import Term, param_fields
 
 __all__ = ["Embedding", "embed", "is_neutral", "clear"]
 

@@ -4,11 +4,11 @@ trackers); sun-tracker observation files (pointax's own text format); X-Y mount
 runs (``L B L0 B0``). :func:`load_run` reads a run in any of them, telling the format
 from the file when it is not given.
 
-The names load from their modules on first use (PEP 562, :mod:`pointax._lazy`), so that
+The names load from their modules on first use (PEP 562, :mod:`pointax.core.lazy`), so that
 ``from pointax.io import load_run`` imports no numerical library until a file is read.
 """
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 # Public name -> the module that defines it.
 _EXPORTS = {

@@ -1,4 +1,4 @@
-"""The readers' error and warnings (defined in :mod:`pointax.errors`, where the core's
+"""The readers' error and warnings (defined in :mod:`pointax.core.errors`, where the core's
 input checks use them too), and the readers' boundary (:func:`file_errors`): whatever
 module an error comes from while a file is read, it leaves the reader naming the file."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import functools
 import os
 
-from ..errors import FileFormatError, InputWarning, PointaxWarning, warn_input
+from ..core.errors import FileFormatError, InputWarning, PointaxWarning, warn_input
 
 __all__ = ["FileFormatError", "PointaxWarning", "InputWarning", "warn_input", "file_errors"]
 
@@ -16,7 +16,7 @@ _TRACEBACK_KINDS = (ArithmeticError, IndexError, KeyError, TypeError, AttributeE
 
 def file_errors(error: type[FileFormatError]):
     """Decorate a reader ``read_x(path, ...)``: an error raised inside it that does not
-    name the file (a check of another module, :class:`pointax.units.ImplausibleValueError`,
+    name the file (a check of another module, :class:`pointax.core.units.ImplausibleValueError`,
     :class:`pointax.terms.NotYetInPointax`, or an unexpected kind) is raised again as
     ``error`` naming the file (and the line, where the error carries one). Its own
     :class:`FileFormatError`, ``OSError`` and plain ``ValueError`` of a bad argument pass
@@ -31,7 +31,7 @@ def file_errors(error: type[FileFormatError]):
                 raise
             except Exception as err:
                 from ..terms.linear import NotYetInPointax
-                from ..units import ImplausibleValueError
+                from ..core.units import ImplausibleValueError
 
                 if isinstance(err, ValueError) and not isinstance(err, (ImplausibleValueError, NotYetInPointax, UnicodeError)):
                     raise

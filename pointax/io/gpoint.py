@@ -85,10 +85,10 @@ import re
 
 import numpy as np
 
-from ..mounts import AZIMUTH_CONVENTIONS
-from ..observations import Observations
-from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
-from ..units import DEG
+from ..core.mounts import AZIMUTH_CONVENTIONS
+from ..core.observations import Observations
+from ..core.rotations import azel_to_enu_numpy, hadec_to_enu_numpy
+from ..core.units import DEG
 from .errors import file_errors, warn_input
 from .gpoint_conventions import GPOINT_AZIMUTH, GpointFormatError
 from .gpoint_model import (  # the model files' names: importable from here, as before the split

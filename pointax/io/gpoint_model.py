@@ -53,7 +53,7 @@ from ..terms.gpoint import (
 )
 from .gpoint_conventions import GPOINT_AZIMUTH, GpointFormatError
 from .errors import file_errors
-from ..units import ARCSEC, POINTING_TERM_LIMIT
+from ..core.units import ARCSEC, POINTING_TERM_LIMIT
 from .text import read_text
 
 __all__ = [
@@ -97,7 +97,7 @@ def format_gpoint_model(source) -> str:
             alt-az model whose azimuth is not counted from South through West, or a GEM
             term whose latitude is not the model's.
     """
-    from ..mounts import AltAzMount, EquatorialMount
+    from ..core.mounts import AltAzMount, EquatorialMount
 
     model = _model_of(source)
     mount = model.mount
@@ -201,7 +201,7 @@ class GpointModelFile:
     def model(self, latitude: float | None = None):
         """A :class:`pointax.Model`: ``pointax.AltAz(terms, azimuth="S-W")`` or
         ``pointax.Equatorial(terms, latitude=latitude)``."""
-        from ..mount_models import AltAz, Equatorial
+        from ..terms.model_factories import AltAz, Equatorial
 
         terms = self.terms(latitude)
         if self.mount == "altaz":

@@ -88,10 +88,10 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..mounts import AZIMUTH_CONVENTIONS
-from ..observations import Observations
-from ..rotations import azel_to_enu_numpy
-from ..units import ARCSEC, DEG
+from ..core.mounts import AZIMUTH_CONVENTIONS
+from ..core.observations import Observations
+from ..core.rotations import azel_to_enu_numpy
+from ..core.units import ARCSEC, DEG
 from .errors import FileFormatError, file_errors
 from .offset_columns import UNIT_NAMES, header_fields, normalise, role_of, split_unit
 from .sanity import check_azimuth, check_not_radians, check_observed_elevation, check_offsets_scale, warn_duplicates

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..units import check_not_degrees, offsets_scale_problem
+from ..core.units import check_not_degrees, offsets_scale_problem
 from .errors import FileFormatError, warn_input
 
 __all__ = [
@@ -141,7 +141,7 @@ def warn_after_end(path, end_line: int, ignored: Sequence[int]) -> None:
 def check_offsets_scale(
     error: type[FileFormatError], path, lines: Sequence[int], values_rad, where: str, unit: str, assumed: bool
 ) -> None:
-    """Pointing offsets all below 0.1" in ``unit`` (:func:`pointax.units.offsets_scale_problem`):
+    """Pointing offsets all below 0.1" in ``unit`` (:func:`pointax.core.units.offsets_scale_problem`):
     refused when the unit was assumed (no header unit, no ``units``), warned of when it
     was stated."""
     problem = offsets_scale_problem(values_rad, where, unit)

@@ -33,8 +33,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..observations import Observations
-from ..rotations import azel_to_enu_numpy
+from ..core.observations import Observations
+from ..core.rotations import azel_to_enu_numpy
 from .errors import FileFormatError, file_errors
 from .sanity import AZIMUTH_LIMIT_DEG, HORIZON_DEG, check_not_radians, warn_duplicates
 from .text import read_text

@@ -37,10 +37,10 @@ import os
 
 import numpy as np
 
-from ..mounts import AZIMUTH_CONVENTIONS
-from ..observations import Observations
-from ..rotations import azel_to_enu_numpy, hadec_to_enu_numpy
-from ..units import DEG
+from ..core.mounts import AZIMUTH_CONVENTIONS
+from ..core.observations import Observations
+from ..core.rotations import azel_to_enu_numpy, hadec_to_enu_numpy
+from ..core.units import DEG
 from .errors import file_errors, warn_input
 from .sanity import (
     HORIZON_DEG,
@@ -226,7 +226,7 @@ class TpointRun:
     def model(self, terms=(), fixed=(), residual_form: str = "sky"):
         """The model of this run's mount with ``terms``: :func:`pointax.AltAz` in the
         run's azimuth convention, or :func:`pointax.Equatorial` at its latitude."""
-        from ..mount_models import AltAz, Equatorial
+        from ..terms.model_factories import AltAz, Equatorial
 
         if self.mount == "equatorial":
             return Equatorial(terms, latitude=self.latitude, fixed=fixed, residual_form=residual_form)

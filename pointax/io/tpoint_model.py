@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..units import ARCSEC
+from ..core.units import ARCSEC
 from .text import read_text
 from .errors import file_errors
 from .tpoint_records import MOUNTS, TpointFormatError, record_numbers, records
@@ -170,7 +170,7 @@ class TpointModelFile:
                 term's line and what is wrong with the name.
             ValueError: for an unknown ``form``.
         """
-        from ..mount_models import AltAz, Equatorial
+        from ..terms.model_factories import AltAz, Equatorial
 
         if mount not in MOUNTS:
             raise ValueError(f"unknown mount {mount!r}; expected one of {', '.join(MOUNTS)}")

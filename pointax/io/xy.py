@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..observations import Observations
+from ..core.observations import Observations
 from .errors import FileFormatError, file_errors
 from .sanity import AZIMUTH_LIMIT_DEG, check_not_radians, warn_duplicates
 from .text import read_text

@@ -34,9 +34,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._x64 import float64
-from ..model import Model
-from ..units import ARCSEC, directions_enu
+from ..core.precision import float64
+from ..core.model import Model
+from ..core.units import ARCSEC, directions_enu
 from .jacobian import pointing_jacobian, readings_for
 
 __all__ = [
@@ -85,8 +85,8 @@ def sky_grid(
 
 def noise_weights(noise) -> np.ndarray:
     """``(2,)`` inverse standard deviations from ``noise``: radians, one value or ``(axis
-    1, axis 2)`` in the mount frame's tangent plane (as :func:`pointax.simulate`)."""
-    from ..units import angles_in_radians
+    1, axis 2)`` in the mount frame's tangent plane (as :func:`pointax.core.simulate`)."""
+    from ..core.units import angles_in_radians
 
     sigma = np.broadcast_to(np.asarray(angles_in_radians(noise, "noise"), np.float64), (2,))
     if not np.all(np.isfinite(sigma) & (sigma > 0)):

@@ -9,7 +9,7 @@ enough from the Sun and the Moon then; they carry their catalogue entries and th
 rules (:class:`StarRules`), so that :func:`place_stars` can place them again at the
 times they are scheduled for (:func:`pointax.plan_run` with ``seconds_per_target``:
 the sky turns 15 deg an hour). Positions are the star planner's fast ones
-(:func:`pointax.stars.apparent.fast_altaz`, within about an arcsecond of the exact
+(:func:`pointax.sky.stars.apparent.fast_altaz`, within about an arcsecond of the exact
 apparent places, refracted when a pressure is given); the Sun's and Moon's are
 astropy's topocentric ones. Astropy is imported only by the functions that need it.
 """
@@ -22,7 +22,7 @@ import math
 import numpy as np
 from jaxtyping import Float
 
-from ..rotations import azel_to_enu_numpy
+from ..core.rotations import azel_to_enu_numpy
 
 __all__ = [
     "Candidates",
@@ -53,7 +53,7 @@ class StarRules:
 
     Attributes:
         location: the site (an astropy ``EarthLocation``).
-        weather: refraction weather (:func:`pointax.stars.apparent.checked_weather`'s
+        weather: refraction weather (:func:`pointax.sky.stars.apparent.checked_weather`'s
             arrays: pressure hPa, temperature C, humidity, wavelength um), or None.
         min_elevation_deg, max_elevation_deg: the elevation limits, degrees.
         sun_avoid_deg, moon_avoid_deg: the least angles from the Sun and the Moon,
@@ -81,7 +81,7 @@ class Candidates:
         magnitude: ``(n,)`` star magnitudes, or None.
         sun: ``(n, 3)`` the sun's direction at each (sun trackers), or None.
         stars: ``(n,)`` the stars' catalogue entries (a
-            :class:`pointax.stars.Catalogue`, from :func:`star_candidates`), or None.
+            :class:`pointax.sky.stars.Catalogue`, from :func:`star_candidates`), or None.
         rules: the :class:`StarRules` they were chosen by (shared by all), or None.
     """
 
@@ -164,7 +164,7 @@ def moon_direction(times, location) -> Float[np.ndarray, "*shape 3"]:
     from astropy.coordinates import AltAz, get_body
     from astropy.utils import iers
 
-    from ..sky import as_time, check_location
+    from ..sky.sun import as_time, check_location
 
     t = as_time(times)
     location = check_location(location)
@@ -201,9 +201,9 @@ def star_candidates(
     Args:
         location: the site (:func:`pointax.sky.site`).
         time: the planning time (UTC; anything :class:`astropy.time.Time` reads).
-        catalogue: the stars (default :func:`pointax.stars.bright_stars`, 4559 stars).
+        catalogue: the stars (default :func:`pointax.sky.stars.bright_stars`, 4559 stars).
         min_elevation_deg, max_elevation_deg: the elevation limits, degrees.
-        max_magnitude, single_only: as for :func:`pointax.stars.plan_star_run`.
+        max_magnitude, single_only: as for :func:`pointax.sky.stars.plan_star_run`.
         sun_avoid_deg: leave out stars within this angle of the Sun, degrees (None:
             keep all).
         moon_avoid_deg: leave out stars within this angle of the Moon (its topocentric
@@ -216,9 +216,9 @@ def star_candidates(
         carrying their catalogue entries and :class:`StarRules` (for
         :func:`place_stars`).
     """
-    from ..sky import as_time, check_location, sun_direction
-    from ..stars.apparent import checked_weather, fast_altaz
-    from ..stars.catalogue import bright_stars
+    from ..sky.sun import as_time, check_location, sun_direction
+    from ..sky.stars.apparent import checked_weather, fast_altaz
+    from ..sky.stars.catalogue import bright_stars
 
     sun_avoid_deg = _avoid_angle(sun_avoid_deg, "sun_avoid_deg")
     moon_avoid_deg = _avoid_angle(moon_avoid_deg, "moon_avoid_deg")
@@ -284,8 +284,8 @@ def place_stars(candidates: Candidates, times) -> tuple[Candidates, np.ndarray]:
         ValueError: candidates without catalogue entries (not from
             :func:`star_candidates`), or times not one per star.
     """
-    from ..sky import as_time, sun_direction
-    from ..stars.apparent import fast_altaz
+    from ..sky.sun import as_time, sun_direction
+    from ..sky.stars.apparent import fast_altaz
 
     if candidates.stars is None or candidates.rules is None:
         raise ValueError("only candidates from star_candidates (with their catalogue entries) can be placed again")
@@ -338,7 +338,7 @@ def sun_candidates(
     """
     import astropy.units as u
 
-    from ..sky import as_time, check_location, sun_altaz
+    from ..sky.sun import as_time, check_location, sun_altaz
 
     t0 = as_time(start)
     step = float(step_minutes)

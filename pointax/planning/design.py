@@ -46,7 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-from .._x64 import float64
+from ..core.precision import float64
 
 __all__ = [
     "CRITERIA", "STARTS", "greedy_design", "exchange_design", "design_scores", "design_bound", "DEFAULT_RIDGE",

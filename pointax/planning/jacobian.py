@@ -19,11 +19,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._x64 import float64
-from ..model import Model
-from ..observations import COUNTED_READINGS
-from ..rotations import angle_between, tangent_offset, wrap_pi
-from ..units import directions_enu
+from ..core.precision import float64
+from ..core.model import Model
+from ..core.observations import COUNTED_READINGS
+from ..core.rotations import angle_between, tangent_offset, wrap_pi
+from ..core.units import directions_enu
 
 __all__ = [
     "readings_for",
@@ -138,7 +138,7 @@ def reading_limits_ok(model: Model, readings: np.ndarray, limits) -> tuple[np.nd
     alt-az cable wrap of +-270 deg puts azimuth 300 deg at -60 deg); axis 2 is only
     checked. Returns ``(readings, inside)``.
     """
-    from ..command import limits_array
+    from ..core.inverse import limits_array
 
     lim = np.asarray(limits_array(limits))
     r = np.array(readings, np.float64, copy=True)

@@ -34,10 +34,10 @@ import warnings
 import numpy as np
 from jaxtyping import Float, Int
 
-from .._x64 import float64
-from ..errors import PointaxWarning
-from ..model import Model
-from ..units import ARCSEC, angles_in_radians, directions_enu
+from ..core.precision import float64
+from ..core.errors import PointaxWarning
+from ..core.model import Model
+from ..core.units import ARCSEC, angles_in_radians, directions_enu
 from .accuracy import PredictedAccuracy, information_matrix, invert_information, noise_weights, sky_average, sky_grid
 from .candidates import Candidates, place_stars
 from .design import DEFAULT_RIDGE, EXCHANGE_PASSES, exchange_design, greedy_design
@@ -179,7 +179,7 @@ class Plan:
 
 
 def _angle_readings(model: Model) -> bool:
-    from ..observations import COUNTED_READINGS
+    from ..core.observations import COUNTED_READINGS
 
     return model.mount.convention not in COUNTED_READINGS
 
@@ -398,7 +398,7 @@ def _schedule(model: Model, candidates: Candidates, seq: np.ndarray, cadence: fl
     dropped)``, ``dropped`` a tuple of ``(label, time, reason)``; warns naming them."""
     import astropy.units as u
 
-    from ..sky import as_time
+    from ..sky.sun import as_time
 
     start = as_time(str(candidates.time[seq[0]]))
     dropped = []

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..units import ARCSEC
+from ..core.units import ARCSEC
 
 __all__ = ["accuracy_skymap"]
 
@@ -18,7 +18,7 @@ def accuracy_skymap(accuracy, *, resolution_deg=2.0, min_elevation_deg=20.0, max
     from ..plots.skymap import draw_map_grid, map_positions
     from .candidates import directions_azel
 
-    from ..rotations import azel_to_enu_numpy
+    from ..core.rotations import azel_to_enu_numpy
 
     az = np.arange(0.0, 360.0 + 0.5 * resolution_deg, resolution_deg)
     el = np.arange(min_elevation_deg, max_elevation_deg + 1e-9, resolution_deg)

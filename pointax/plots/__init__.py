@@ -24,7 +24,7 @@ Residuals are observed minus model, in arcsec (mrad for heliostats); masked (wei
 
 from __future__ import annotations
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 __all__ = [
     "fit_figure",

@@ -56,7 +56,7 @@ def _enu_to_azel(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _tangent_basis(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors along increasing azimuth and elevation at ``(n, 3)`` directions
-    (numpy twin of :func:`pointax.rotations.tangent_basis`)."""
+    (numpy twin of :func:`pointax.core.rotations.tangent_basis`)."""
     az, el = _enu_to_azel(v)
     e_az = np.stack([np.cos(az), -np.sin(az), np.zeros_like(az)], axis=-1)
     e_el = np.stack([-np.sin(el) * np.sin(az), -np.sin(el) * np.cos(az), np.cos(el)], axis=-1)
@@ -155,7 +155,7 @@ def _axis_angles(mount, encoder: np.ndarray) -> np.ndarray:
     """Nominal axis angles (radians) of ``(n, 2)`` raw readings: the readings
     themselves for mounts whose encoders read angles, else ``mount.axis_angles``
     (a heliostat's actuator increments to joint angles)."""
-    from ..mounts import Mount
+    from ..core.mounts import Mount
 
     if type(mount).axis_angles is Mount.axis_angles:
         return np.array(encoder, float)
@@ -238,7 +238,7 @@ def residual_data(result, observations, outliers=None) -> ResidualData:
     az, el = _enu_to_azel(target)
     azel = np.degrees(np.stack([np.mod(az, 2 * np.pi), el], axis=1))
 
-    from ..mounts import SphericalMount
+    from ..core.mounts import SphericalMount
 
     observed = None
     if isinstance(mount, SphericalMount):

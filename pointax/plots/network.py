@@ -1,8 +1,8 @@
 """A network's per-site Sky RMS and status.
 
 From a batched :class:`pointax.FitResult` (:func:`pointax.fit_batch`; status from
-:func:`pointax.site_statuses`) or a :class:`pointax.network.NetworkResult`
-(:func:`pointax.network.fit_network`): one bar per site, its Sky RMS in arcsec,
+:func:`pointax.site_statuses`) or a :class:`pointax.analysis.network.NetworkResult`
+(:func:`pointax.analysis.network.fit_network`): one bar per site, its Sky RMS in arcsec,
 coloured by status (converged, degenerate, failed). A failed site without a Sky RMS is
 drawn as a zero-height bar marked with 'x'.
 
@@ -40,7 +40,7 @@ def site_rows(result, names=None) -> list[tuple[str, str, float, str]]:
                 rms = None if mrad is None else mrad * ARCSEC_PER_MRAD
             rows.append((str(d["site"]), str(d["status"]), math.nan if rms is None else float(rms), str(d.get("reason", ""))))
         return rows
-    from ..batch import site_statuses
+    from ..fitting.batch import site_statuses
 
     statuses = site_statuses(result)
     rms = np.asarray(result.sky_rms, float).reshape(-1) / ARCSEC
@@ -55,7 +55,7 @@ def network_figure(result, *, names=None, title: str | None = None):
 
     Args:
         result: a batched :class:`pointax.FitResult` or a
-            :class:`pointax.network.NetworkResult`.
+            :class:`pointax.analysis.network.NetworkResult`.
         names: site names for a batched FitResult (default 'site 1', 'site 2', ...).
     """
     rows = site_rows(result, names)

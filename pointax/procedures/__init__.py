@@ -14,7 +14,7 @@
 
 from __future__ import annotations
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 __getattr__, __dir__ = lazy_namespace(
     __name__,

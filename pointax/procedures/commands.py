@@ -16,7 +16,7 @@ import re
 
 import numpy as np
 
-from ..units import ARCSEC
+from ..core.units import ARCSEC
 from .graphics import cmd_capt, cmd_gc, cmd_graph, cmd_pltz, require_fit
 from .parser import COMMANDS, GRAPHICS_NOT_DRAWN, NOT_IMPLEMENTED, NOTED_SETTINGS, Line, Quoted
 from .session import Session, read_run
@@ -235,7 +235,7 @@ def cmd_fit(s: Session, args: list[str], line: Line) -> None:
 
 def cmd_slist(s: Session, args: list[str], line: Line) -> None:
     """SLIST: the residual listing of the last FIT (masks as they are now)."""
-    from ..listing import format_listing
+    from ..analysis.listing import format_listing
 
     result = require_fit(s, "SLIST")
     if s.stale:
@@ -249,7 +249,7 @@ _R_ABOVE = re.compile(r"^R\s*(>|GT)\s*([-+0-9.eE]+)$", re.IGNORECASE)
 def cmd_mask(s: Session, args: list[str], line: Line) -> None:
     """MASK R > X: mask observations whose on-sky residual under the current model
     exceeds X arcsec; MASK 17 19-21: by number (from 1, file order); MASK ALL."""
-    from ..masking import format_rows, mask_above, parse_rows
+    from ..fitting.masking import format_rows, mask_above, parse_rows
 
     run = s.require_run()
     text = " ".join(args).strip()
@@ -278,7 +278,7 @@ def cmd_mask(s: Session, args: list[str], line: Line) -> None:
 
 def cmd_unmask(s: Session, args: list[str], line: Line) -> None:
     """UNMASK: every observation in use again; UNMASK 17 19-21: those."""
-    from ..masking import parse_rows
+    from ..fitting.masking import parse_rows
 
     run = s.require_run()
     text = " ".join(args).strip()
@@ -359,7 +359,7 @@ def cmd_show(s: Session, args: list[str], line: Line) -> None:
     else:
         s.say(f"data: {s.run.path} ({s.run.caption}), {len(s.run)} observations, {int(s.masked.sum())} masked")
         if s.masked.any():
-            from ..masking import format_rows
+            from ..fitting.masking import format_rows
 
             s.say(f"masked: {format_rows(np.flatnonzero(s.masked))}")
     mount = s.mount if s.run is None else s.run.mount  # the run's own mount once read

@@ -144,7 +144,7 @@ class Session:
     def observations(self):
         """The run's :class:`pointax.Observations` with masked ones at weight 0 (what
         plots draw as masked)."""
-        from ..observations import Observations
+        from ..core.observations import Observations
 
         obs = self.require_run().observations
         return Observations(obs.encoder, obs.target, self.weights(), obs.convention)

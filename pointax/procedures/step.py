@@ -28,13 +28,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._x64 import float64
+from ..core.precision import float64
 from ..fitting import FitResult, embed, restrict
 from ..fitting import core
 from ..fitting.result import SUCCESSFUL
 from ..fitting.solo import prepare
 from ..fitting.statistics import normalised_weights
-from ..model import Model
+from ..core.model import Model
 
 __all__ = ["Step", "gauss_newton_step"]
 

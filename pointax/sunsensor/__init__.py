@@ -22,7 +22,7 @@ An edge of pointax built on torch and kornia (the JAX core never imports it):
     result = px.fit(model_with_camera_term, data)
 """
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 # Names -> submodule. Loaded on first use (PEP 562), so that importing
 # pointax.cli.centroid (for the ``pointax`` command's parser) does not import torch.
@@ -74,5 +74,5 @@ def require_vision() -> None:
 
 
 # ``centroid`` is both a function and the submodule defining it: the package keeps the
-# function whichever is imported first (pointax._lazy).
+# function whichever is imported first (pointax.core.lazy).
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS)

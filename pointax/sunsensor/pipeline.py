@@ -27,8 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._x64 import float64
-from ..observations import Observations
+from ..core.precision import float64
+from ..core.observations import Observations
 from ..terms.camera import camera_axis_target, camera_frame
 from .camera import Camera
 from .centroid import Centroids, centroid

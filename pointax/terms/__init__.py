@@ -26,7 +26,7 @@
 and ``turntable("full")`` build terms by name.
 """
 
-from .._lazy import lazy_namespace
+from ..core.lazy import lazy_namespace
 
 _NAMES = (
     "Term",
@@ -115,12 +115,12 @@ _NAMES = (
 )
 
 _SUBMODULES = (
-    "base", "equatorial", "equatorial_special", "gpoint", "harmonic", "library", "polynomial", "repertoire",
+    "equatorial", "equatorial_special", "gpoint", "harmonic", "library", "polynomial", "repertoire",
     "tpoint_special",
 )  # fmt: skip
 
 # Every public name loads from :mod:`.library`, which imports the term modules: importing
-# :mod:`pointax.terms.base` (the term interface, as the core does) loads no particular term.
+# :mod:`pointax.core.term` (the term interface, as the core does) loads no particular term.
 # ``heliostat`` and ``tpoint`` are the functions (their modules: ``heliostat_terms``,
 # ``pointax.terms.tpoint``), also once those modules are imported by name. The
 # equatorial TF (its name is the alt-az TF's) is ``pointax.terms.equatorial.TF``.

@@ -62,9 +62,9 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._x64 import float64
-from ..rotations import azel_to_enu, enu_to_azel, rot_x, rot_y, rot_z
-from .base import Term, param
+from ..core.precision import float64
+from ..core.rotations import azel_to_enu, enu_to_azel, rot_x, rot_y, rot_z
+from ..core.term import Term, param
 
 __all__ = ["CameraMounting", "camera_axes", "camera_frame", "camera_axis_target", "rotation_between"]
 

@@ -118,8 +118,8 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ..rotations import rot_x, rot_y, rot_z
-from .base import Term, angle_pair, param
+from ..core.rotations import rot_x, rot_y, rot_z
+from ..core.term import Term, angle_pair, param
 from .equatorial_special import SPECIAL_EQUATORIAL_TERMS, SPECIAL_NEEDS_LATITUDE
 from .linear import LatitudeTerm as _LatitudeTerm
 from .linear import LinearTerm

@@ -30,7 +30,7 @@ import math
 from collections.abc import Iterable
 
 from . import gpoint_altaz, gpoint_extras, gpoint_gem
-from .base import Term
+from ..core.term import Term
 from .gpoint_altaz import (
     GPOINT_TERMS,
     GpointIA,

@@ -42,7 +42,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .base import Term, angle_pair, param
+from ..core.term import Term, angle_pair, param
 
 __all__ = [
     "GpointTerm",

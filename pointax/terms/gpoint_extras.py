@@ -38,7 +38,7 @@ import math
 import equinox as eqx
 import jax.numpy as jnp
 
-from .base import Term, angle_pair, param
+from ..core.term import Term, angle_pair, param
 from .gpoint_gem import gem_horizontal
 
 __all__ = ["GPOINT_FUNCTIONS", "GpointExtra", "parse_extra"]

@@ -59,7 +59,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 
-from .base import Term, angle_pair, param
+from ..core.term import Term, angle_pair, param
 
 __all__ = [
     "GpointGemTerm",

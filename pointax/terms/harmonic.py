@@ -93,8 +93,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..rotations import rot_z
-from .base import Term, angle_pair, param
+from ..core.rotations import rot_z
+from ..core.term import Term, angle_pair, param
 from .linear import LinearTerm, NotYetInPointax
 
 __all__ = [

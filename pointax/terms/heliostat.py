@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import equinox as eqx
 
-from ..rotations import rot_x, rot_y, rot_z
-from .base import Term, angle_pair, param
+from ..core.rotations import rot_x, rot_y, rot_z
+from ..core.term import Term, angle_pair, param
 
 __all__ = ["AxisTilt", "JointZero", "HELIOSTAT_TERMS", "HELIOSTAT_DEFAULT", "heliostat"]
 

@@ -8,7 +8,7 @@ import importlib
 from collections.abc import Iterable, Iterator, Mapping
 
 from . import _NAMES
-from .base import SkyPoint, Term, param, param_fields, param_unit
+from ..core.term import SkyPoint, Term, param, param_fields, param_unit
 from .harmonic import (
     Harmonic,
     RigorousHarmonic,
@@ -17,7 +17,7 @@ from .harmonic import (
     parse_harmonic,
 )
 from .polynomial import Polynomial, RigorousPolynomial, is_polynomial_name, parse_polynomial, polynomial_term
-from ..units import check_pointing_term, is_quantity
+from ..core.units import check_pointing_term, is_quantity
 from .repertoire import not_yet_error, not_yet_reason
 from .tpoint import (
     ACEC,

@@ -12,7 +12,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 
-from .base import SkyPoint, Term, angle_pair, param
+from ..core.term import SkyPoint, Term, angle_pair, param
 
 __all__ = ["NotYetInPointax", "tpoint_azimuth", "LinearTerm", "LatitudeTerm"]
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ..rotations import rot_x, rot_y, rot_z
-from .base import Term, angle_pair, param
+from ..core.rotations import rot_x, rot_y, rot_z
+from ..core.term import Term, angle_pair, param
 from .linear import tpoint_azimuth
 from .tpoint import TF, TX
 from .tpoint_special import SPECIAL_ALTAZ_TERMS

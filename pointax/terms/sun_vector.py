@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rotations import rot_x, rot_y
-from .base import Term, angle_pair, param
+from ..core.rotations import rot_x, rot_y
+from ..core.term import Term, angle_pair, param
 
 __all__ = [
     "TiltEast",

@@ -116,9 +116,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._x64 import float64
-from ..rotations import rot_y, rot_z
-from .base import Term, angle_pair, param
+from ..core.precision import float64
+from ..core.rotations import rot_y, rot_z
+from ..core.term import Term, angle_pair, param
 
 __all__ = [
     "SphericalHarmonic",
@@ -149,7 +149,7 @@ OffsetFunction = Callable[[Array, Array], tuple]
 
 # ------------------------------------------------------------------ the X-Y mount frame
 
-# The X-Y mount frame is (East, Up, North) (pointax.mounts.XY_FRAME, a permutation P with
+# The X-Y mount frame is (East, Up, North) (pointax.core.mounts.XY_FRAME, a permutation P with
 # P = P^T = P^-1): a rotation R written in East-North-Up acts as P R P there. P is a
 # mirror, so a rotation about a coordinate axis changes sense: P Rz(t) P = Ry(-t) (Up is
 # the mount frame's y) and P Ry(t) P = Rz(-t) (North is its z).

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...observations import Observations
+from ...core.observations import Observations
 from .document import (
     CALIBRATION_SUFFIX,
     FOCAL_SPOT_METHODS,

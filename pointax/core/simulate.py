@@ -1,0 +1,56 @@
+"""Simulated observations: a true model, encoder readings and measurement noise."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from .precision import float64
+from .model import Model
+from .observations import Observations
+from .rotations import offset_direction
+from .units import angles_in_radians
+
+__all__ = ["simulate", "encoder_grid"]
+
+
+@float64
+def simulate(
+    model: Model,
+    encoder: Float[ArrayLike, "n 2"],
+    noise: float | tuple[float, float] = 0.0,
+    seed: int = 0,
+) -> Observations:
+    """Observations that ``model`` (the truth) would produce at these encoder readings.
+
+    Args:
+        model: the true pointing model.
+        encoder: ``(n, 2)`` raw encoder angles, radians (or an astropy Quantity), in
+            the mount's convention.
+        noise: standard deviation of Gaussian measurement noise on the sky, radians
+            (or a Quantity, e.g. ``2 * u.arcsec``):
+            one value for both axes or ``(across axis 1, along axis 2)`` in the mount
+            frame: (cross-elevation, elevation) for alt-az, (dL cos B, dB) for X-Y.
+        seed: seed of the NumPy random generator for the noise.
+
+    Returns:
+        :class:`Observations` with the noisy true directions as targets.
+    """
+    encoder = angles_in_radians(encoder, "encoder")
+    truth = np.asarray(model(encoder))
+    if isinstance(noise, tuple):
+        noise = tuple(angles_in_radians(x, "noise") for x in noise)
+    sigma = np.broadcast_to(angles_in_radians(noise, "noise"), (2,))
+    offsets = np.random.default_rng(seed).normal(size=(encoder.shape[0], 2)) * sigma
+    frame = np.asarray(model.mount.frame)
+    target = np.asarray(offset_direction(jnp.asarray(truth @ frame), jnp.asarray(offsets))) @ frame.T
+    return Observations(encoder, target, convention=model.mount.convention)
+
+
+def encoder_grid(n_az: int = 12, elevations_deg=(20, 35, 50, 65, 80), az_offset_deg: float = 0.0) -> np.ndarray:
+    """A simple all-sky grid of ``(n_az * len(elevations), 2)`` encoder positions, radians."""
+    az = np.deg2rad(np.arange(n_az) * 360.0 / n_az + az_offset_deg)
+    el = np.deg2rad(np.asarray(elevations_deg, np.float64))
+    grid_az, grid_el = np.meshgrid(az, el)
+    return np.stack([grid_az.ravel(), grid_el.ravel()], axis=-1)

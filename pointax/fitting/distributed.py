@@ -1,0 +1,199 @@
+"""Batched fits spread over a Dask cluster: sites in chunks, each worker runs the
+compiled batched fit on its chunks.
+
+    from dask.distributed import Client
+    client = Client("tcp://scheduler:8786")                 # or Client(LocalCluster(...))
+    result = px.distributed.fit_batch_distributed(
+        model, batch, client=client, chunk_size=2000, values=starts
+    )
+
+The sites are cut into chunks of ``chunk_size`` (the last one padded with copies of
+its first site, exactly as :func:`pointax.fit_batch` pads its chunks), each chunk is a
+Dask task that runs :func:`pointax.fit_batch` on a worker, and the results are
+gathered and concatenated in site order. Every chunk has one shape, so each worker
+compiles the fit once and reuses it for every further chunk it gets. The result is
+``px.fit_batch(model, batch, chunk_size=chunk_size, ...)`` computed elsewhere: the same
+inputs go through the same compiled program, so the arrays are identical bit for bit
+when workers and client run the same versions of jax/jaxlib on the same kind of CPU.
+
+Needs ``dask[distributed]`` (``pip install "pointax[distributed]"``) here and on every
+worker, with pointax installed there too; workers switch JAX's float64 mode on for the
+duration of each task themselves.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from ..core.precision import float64
+from .batch import check_batch, fit_batch, start_values
+from .options import FitOptions
+from .result import FitResult
+from ..core.model import Model
+from ..core.observations import Observations
+
+__all__ = ["fit_batch_distributed"]
+
+
+def _dask():
+    try:
+        import distributed
+    except ImportError:  # pragma: no cover - exercised only without the extra
+        raise ImportError(
+            'pointax.fitting.distributed needs Dask distributed: pip install "dask[distributed]" '
+            '(or the "distributed" extra of pointax)'
+        ) from None
+    return distributed
+
+
+def _to_numpy(tree):
+    """Array leaves as NumPy arrays (float64 kept whatever the receiver's JAX mode)."""
+    return jax.tree.map(lambda x: np.asarray(x) if eqx.is_array(x) else x, tree)
+
+
+def _batched_observations(encoder, target, weight, convention) -> Observations:
+    """An Observations pytree with a leading site axis ``(S, N, ...)``."""
+    obs = Observations(encoder[0], target[0], weight[0], convention)
+    return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight), obs, (encoder, target, weight))
+
+
+@float64
+def _fit_chunk(model: Model, encoder, target, weight, convention, values, options: dict[str, Any]) -> FitResult:
+    """One Dask task: :func:`pointax.fit_batch` on one chunk, arrays back as NumPy."""
+    obs = _batched_observations(encoder, target, weight, convention)
+    result = fit_batch(model, obs, values=values, **options)
+    return _to_numpy(result)
+
+
+@float64
+def fit_batch_distributed(
+    model: Model,
+    observations: Observations,
+    *,
+    client,
+    chunk_size: int,
+    values: Float[ArrayLike, "S M"] | None = None,  # noqa: F722
+    progress: Callable[[int, int], None] | None = None,
+    retries: int = 0,
+    timeout: float | None = None,
+    **options: Any,
+) -> FitResult:
+    """:func:`pointax.fit_batch` with the chunks of sites run as tasks on a Dask cluster.
+
+    Args:
+        model: the model (structure, fixed parameters, default starting values).
+        observations: ``(S, N, ...)`` observations from :func:`pointax.stack_observations`.
+        client: a ``distributed.Client``, or a scheduler address such as
+            ``"tcp://scheduler:8786"`` (a client is then opened and closed here).
+        chunk_size: sites per task. Every task has this many sites (the last is padded),
+            so each worker compiles once; pick it so that one chunk takes seconds, not
+            milliseconds (scheduling costs about a millisecond per task).
+        values: ``(S, M)`` starting values of the free parameters per site (default: the
+            model's values for every site).
+        progress: called as ``progress(sites_done, sites_total)`` in the client process
+            as each chunk comes back (chunks may finish in any order).
+        retries: times Dask may rerun a chunk whose worker died.
+        timeout: seconds to wait for all chunks (default: no limit); past it the
+            outstanding chunks are cancelled and ``TimeoutError`` is raised (a cluster
+            without live workers would otherwise wait for ever).
+        **options: further keyword arguments of :func:`pointax.fit_batch` (``solver``,
+            ``max_steps``, ``rtol``, ``atol``, ``loss``, ...), passed to every worker.
+
+    Returns:
+        A :class:`pointax.FitResult` with a leading site axis, in site order: the arrays
+        ``px.fit_batch(model, observations, values=values, chunk_size=chunk_size,
+        **options)`` gives.
+
+    Raises:
+        ValueError: bad batch, chunk size, values shape or option; TypeError: an option
+            :func:`pointax.fit_batch` does not take. An exception raised inside a task
+            is re-raised here, with a note naming the chunk's sites.
+    """
+    distributed = _dask()
+    try:
+        inspect.signature(fit_batch).bind(model, observations, values=values, **options)
+    except TypeError as err:
+        raise TypeError(f"fit_batch_distributed: {err}") from None
+    names = ("solver", "max_steps", "rtol", "atol", "loss", "loss_scale", "reject")
+    if options.get("options") is None:
+        FitOptions(**{k: options[k] for k in names if k in options})  # checked before any chunk is sent
+    check_batch(observations)
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
+        raise ValueError(f"chunk_size must be a positive number of sites, got {chunk_size!r}")
+    encoder = np.asarray(observations.encoder, np.float64)
+    target = np.asarray(observations.target, np.float64)
+    weight = np.asarray(observations.weight, np.float64)
+    n_sites = encoder.shape[0]
+    values = start_values(model, n_sites, values)
+    size = max(1, min(int(chunk_size), n_sites))
+    shipped_model = _to_numpy(model)
+
+    own_client = isinstance(client, str)
+    if own_client:
+        client = distributed.Client(client)
+    try:
+        futures = {}
+        for start in range(0, n_sites, size):
+            stop = min(start + size, n_sites)
+            pad = size - (stop - start)
+
+            def chunk(x, start=start, stop=stop, pad=pad):
+                # As fit_batch: the last chunk is padded with copies of its first site.
+                part = x[start:stop]
+                if pad:
+                    part = np.concatenate([part, np.repeat(part[:1], pad, axis=0)])
+                return np.ascontiguousarray(part)
+
+            future = client.submit(
+                _fit_chunk,
+                shipped_model,
+                chunk(encoder),
+                chunk(target),
+                chunk(weight),
+                observations.convention,
+                chunk(values),
+                options,
+                pure=False,
+                retries=retries,
+            )
+            futures[future] = (start, stop)
+        parts: dict[int, FitResult] = {}
+        done = 0
+        try:
+            for future in distributed.as_completed(list(futures), timeout=timeout):
+                start, stop = futures[future]
+                try:
+                    part = future.result()
+                except Exception as err:
+                    err.add_note(f"fit_batch_distributed: raised by the chunk of sites {start}..{stop - 1}")
+                    raise
+                parts[start] = jax.tree.map(lambda x: x[: stop - start], part)
+                done += stop - start
+                if progress is not None:
+                    progress(done, n_sites)
+        except TimeoutError as err:
+            if getattr(err, "__notes__", None):  # raised by a task, not by the wait
+                raise
+            missing = len(futures) - len(parts)
+            raise TimeoutError(
+                f"fit_batch_distributed: {missing} of {len(futures)} chunks not back after {timeout} s "
+                f"({len(client.scheduler_info().get('workers', {}))} workers connected)"
+            ) from None
+        finally:
+            for future in futures:
+                if not future.done():
+                    future.cancel()
+    finally:
+        if own_client:
+            client.close()
+    ordered = [parts[k] for k in sorted(parts)]
+    merged = ordered[0] if len(ordered) == 1 else jax.tree.map(lambda *xs: np.concatenate(xs), *ordered)
+    return jax.tree.map(jnp.asarray, merged)
