@@ -143,11 +143,11 @@ def test_stack_and_argument_errors():
 def test_small_batches_share_one_compilation(network):
     """Batches smaller than a chunk are padded to a power of two: 9 and 13 sites (both
     16) reuse one compiled fit, and the padding changes no result."""
-    from pointax.fitting import batch as batch_module
+    from pointax.fitting import batch_fast_pass as fast_pass
 
     sites, _ = network
     # (five steps: the site data and the steps are one compiled call)
-    fit = batch_module._compiled(batch_module._site_data_and_fits, ("steps", "rtol", "atol"))
+    fit = fast_pass.compiled(fast_pass._site_data_and_fits, ("steps", "rtol", "atol", "tpoint_start"), True)
     model = px.Turntable("full")
     values = np.array([_start(s) for s in sites])
     nine = px.fit_batch(model, px.stack_observations(sites, n_obs=60), values=values)

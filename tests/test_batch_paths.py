@@ -9,6 +9,8 @@ import pytest
 
 import pointax as px
 from pointax.fitting import batch as batch
+from pointax.fitting import batch_fast_pass as fast_pass
+from pointax.fitting.problem import is_affine
 from pointax.core.simulate import encoder_grid
 
 TPOINT = "IA IE CA AN AW TF"  # a small model: the guard is structural, the compilation short
@@ -18,8 +20,8 @@ def _sites(truth, n_sites, noise, encoder):
     return [px.simulate(truth, encoder, noise=noise, seed=k) for k in range(n_sites)]
 
 
-def _tpoint_truth(form):
-    return px.AltAz(px.terms.tpoint(TPOINT), residual_form=form).set(
+def _tpoint_truth(form, terms_form="linear"):
+    return px.AltAz(px.terms.tpoint(TPOINT, form=terms_form), residual_form=form).set(
         IA=px.arcsec(120), IE=px.arcsec(-30), CA=px.arcsec(20), AN=px.arcsec(8), AW=px.arcsec(-12), TF=px.arcsec(15)
     )
 
@@ -27,6 +29,10 @@ def _tpoint_truth(form):
 CASES = {
     "tpoint terms, sky form": (lambda: _tpoint_truth("sky"), lambda: encoder_grid(6, (20, 40, 60, 80))),
     "tpoint terms, tpoint form": (lambda: _tpoint_truth("tpoint"), lambda: encoder_grid(6, (20, 40, 60, 80))),
+    "rigorous tpoint terms (the default form)": (
+        lambda: _tpoint_truth("sky", px.terms.DEFAULT_FORM),
+        lambda: encoder_grid(6, (20, 40, 60, 80)),
+    ),
     "turntable": (
         lambda: px.Turntable("full").set(mu0=px.deg(0.07), nu0=px.deg(0.01), omega0=px.deg(-0.09), alpha0=px.deg(0.3), beta0=px.deg(-0.2)),
         lambda: np.stack(np.meshgrid(np.radians(np.arange(0, 360, 30)), np.radians([15, 35, 55, 75])), -1).reshape(-1, 2),
@@ -46,14 +52,14 @@ def test_clean_sites_of_library_models_stay_on_the_fast_path(name, monkeypatch):
     result = px.fit_batch(start, px.stack_observations(sites))
     assert np.all(np.asarray(result.converged))
     assert calls == []  # no site went to the full loop
-    if batch.is_affine(start):
+    if is_affine(start):
         steps = 1
-    elif batch.starts_in_tpoint_form(start):  # one TPOINT-form step, exact steps, chord steps
-        steps = 1 + batch.TPOINT_START_STEPS + batch.TPOINT_START_CHORDS
+    elif fast_pass.starts_in_tpoint_form(start):  # one TPOINT-form step, exact steps, chord steps
+        steps = 1 + fast_pass.TPOINT_START_STEPS + fast_pass.TPOINT_START_CHORDS
     else:
-        steps = batch.DEFAULT_STEPS
+        steps = fast_pass.DEFAULT_STEPS
     assert np.all(np.asarray(result.iterations) == steps)
-    assert batch.starts_in_tpoint_form(start) == (name == "tpoint terms, sky form")
+    assert fast_pass.starts_in_tpoint_form(start) == (name == "tpoint terms, sky form")
 
 
 def test_sites_left_to_the_full_loop_equal_their_solo_fits():
@@ -71,10 +77,10 @@ def test_sites_left_to_the_full_loop_equal_their_solo_fits():
 
 
 def test_fast_compile_options_per_model():
-    assert batch.uses_fast_compile_options(px.Turntable("full"))
-    assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE"), residual_form="tpoint"))
-    assert batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE", form="rigorous")))
-    assert not batch.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE")))
+    assert fast_pass.uses_fast_compile_options(px.Turntable("full"))
+    assert fast_pass.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE"), residual_form="tpoint"))
+    assert fast_pass.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE", form="rigorous")))
+    assert not fast_pass.uses_fast_compile_options(px.AltAz(px.terms.tpoint("IA IE", form="linear")))
 
 
 class _Wobble(px.Term):
@@ -96,15 +102,15 @@ def test_the_tpoint_start_is_only_for_linear_sky_terms(monkeypatch):
     started near the truth stay on the fast path (with the TPOINT start and one exact
     step, every site went to the full loop). Fixed, the wobble leaves only linear sky
     terms free: then the TPOINT start applies."""
-    linear = px.terms.tpoint("IA IE CA")
+    linear = px.terms.tpoint("IA IE CA", form="linear")
     truth = px.AltAz(linear + (_Wobble(amp=px.arcsec(6), phase=px.deg(35)),)).set(IA=px.arcsec(30), IE=px.arcsec(-12), CA=px.arcsec(-9))
     start = px.AltAz(linear + (_Wobble(amp=px.arcsec(5), phase=px.deg(30)),))
-    assert not batch.starts_in_tpoint_form(start)
-    assert batch.starts_in_tpoint_form(start.fix("_Wobble.amp", "_Wobble.phase"))
+    assert not fast_pass.starts_in_tpoint_form(start)
+    assert fast_pass.starts_in_tpoint_form(start.fix("_Wobble.amp", "_Wobble.phase"))
     sites = _sites(truth, 4, px.arcsec(1.0), encoder_grid(8, (20, 35, 50, 65, 80)))
     calls = []
     real = batch._fit_sites
     monkeypatch.setattr(batch, "_fit_sites", lambda *a, **k: calls.append(1) or real(*a, **k))
     result = px.fit_batch(start, px.stack_observations(sites))
     assert np.all(np.asarray(result.converged)) and calls == []
-    assert np.all(np.asarray(result.iterations) == batch.DEFAULT_STEPS)
+    assert np.all(np.asarray(result.iterations) == fast_pass.DEFAULT_STEPS)

@@ -18,9 +18,15 @@ from test_batch import _padded
 from test_conformance import _ols_reference
 
 import pointax as px
-from pointax.fitting.fast_evaluation import is_affine, site_data, site_residuals
+from pointax.fitting.problem import is_affine, site_data, site_residuals
 from pointax.fitting.fast_jacobian import residual_function
 from pointax.core.term import angle_pair
+
+
+def _linear(*args, **kwargs):
+    """TPOINT's terms in the linear form: the form whose TPOINT residuals are the linear
+    least-squares problem of DESIGN.md's definitions (the default form is rigorous)."""
+    return px.terms.tpoint(*args, form="linear", **kwargs)
 
 ARCSEC = np.pi / 648000
 TERMS = "IA IE NPAE CA AN AW TF TX"
@@ -33,7 +39,7 @@ def mmt():
 
 @pytest.fixture(scope="module")
 def tpoint_fit(mmt):
-    return px.fit(px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth, residual_form="tpoint"), mmt)
+    return px.fit(px.AltAz(_linear(TERMS), azimuth=mmt.azimuth, residual_form="tpoint"), mmt)
 
 
 def test_tpoint_form_is_the_linear_least_squares_fit(mmt, tpoint_fit):
@@ -56,7 +62,7 @@ def test_tpoint_form_reproduces_tpoint(tpoint_fit):
 def test_the_two_forms_differ_at_second_order(mmt, tpoint_fit):
     """Same model, two objectives: on a real run (offsets of tens of arcseconds) the
     fitted values differ by a few 1e-9 rad (0.001")."""
-    sky = px.fit(px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth), mmt)
+    sky = px.fit(px.AltAz(_linear(TERMS), azimuth=mmt.azimuth), mmt)
     diff = np.max(np.abs(np.asarray(sky.values) - np.asarray(tpoint_fit.values)))
     assert 1e-11 < diff < 1e-8
 
@@ -73,7 +79,7 @@ class SkyWobble(px.Term):
 
 def _mixed_models():
     """Models mixing rotations, encoder offsets, linear and nonlinear sky offsets."""
-    tp = px.terms.tpoint("IA IE AN AW TF TX HESE2", values={"IA": 20 * ARCSEC, "AN": 8 * ARCSEC, "TF": 5 * ARCSEC})
+    tp = _linear("IA IE AN AW TF TX HESE2", values={"IA": 20 * ARCSEC, "AN": 8 * ARCSEC, "TF": 5 * ARCSEC})
     rigorous = px.terms.tpoint("NPAE CA", form="rigorous", values={"NPAE": 12 * ARCSEC, "CA": -30 * ARCSEC})
     wobble = SkyWobble(amp=6 * ARCSEC)
     altaz = px.AltAz((*tp, *rigorous, wobble), azimuth="S-E", residual_form="tpoint")
@@ -104,7 +110,7 @@ def test_site_evaluation_equals_the_generic_residuals(name):
 def test_tpoint_residuals_by_hand():
     """The generic residuals against a numpy transcription of TPOINT's definition."""
     values = {"IA": 40 * ARCSEC, "IE": -15 * ARCSEC, "AN": 9 * ARCSEC, "TX": 2 * ARCSEC}
-    model = px.AltAz(px.terms.tpoint("IA IE AN TX", values=values), residual_form="tpoint")
+    model = px.AltAz(_linear("IA IE AN TX", values=values), residual_form="tpoint")
     rng = np.random.default_rng(0)
     raw = np.stack([rng.uniform(0, 2 * np.pi, 20), rng.uniform(0.3, 1.4, 20)], axis=1)
     observed = raw + rng.normal(0, 50 * ARCSEC, raw.shape)
@@ -140,13 +146,13 @@ def test_derivatives_match_finite_differences():
 def _tpoint_site(seed: int, n: int):
     rng = np.random.default_rng(seed)
     values = dict(zip(TERMS.split(), rng.normal(0, [100, 30, 20, 20, 10, 10, 10, 3]) * ARCSEC))
-    truth = px.AltAz(px.terms.tpoint(TERMS, values=values))
+    truth = px.AltAz(_linear(TERMS, values=values))
     raw = np.stack([rng.uniform(0, 2 * np.pi, n), np.radians(rng.uniform(15, 85, n))], axis=1)
     return px.simulate(truth, raw, noise=ARCSEC, seed=seed)
 
 
 def test_batch_takes_one_step_and_equals_solo_fits():
-    model = px.AltAz(px.terms.tpoint(TERMS), residual_form="tpoint")
+    model = px.AltAz(_linear(TERMS), residual_form="tpoint")
     assert is_affine(model)
     sites = [_tpoint_site(k, n) for k, n in enumerate((60, 41, 55, 60))]
     nan_site = _tpoint_site(10, 60)
@@ -171,7 +177,7 @@ def test_batch_takes_one_step_and_equals_solo_fits():
 
 
 def test_affine_only_when_every_free_parameter_is_linear():
-    linear = px.terms.tpoint(TERMS)
+    linear = _linear(TERMS)
     assert not is_affine(px.AltAz(linear))  # the exact form: a fixed point, not affine
     rigorous = px.terms.tpoint("CA", form="rigorous")
     mixed = px.AltAz((*linear[:2], *rigorous), residual_form="tpoint")
@@ -180,8 +186,8 @@ def test_affine_only_when_every_free_parameter_is_linear():
 
 
 def test_residual_form_is_kept_and_checked():
-    model = px.AltAz(px.terms.tpoint("IA IE CA"), residual_form="tpoint")
-    for copy in (model.fix("IA"), model.free(), model.with_terms(*px.terms.tpoint("TF")), model.without_terms("CA"),
+    model = px.AltAz(_linear("IA IE CA"), residual_form="tpoint")
+    for copy in (model.fix("IA"), model.free(), model.with_terms(*_linear("TF")), model.without_terms("CA"),
                  model.with_values(model.values())):
         assert copy.residual_form == "tpoint"
     assert model.with_residual_form("sky").residual_form == "sky"
@@ -203,7 +209,7 @@ def test_claimed_linearity_must_come_with_a_sky_offset():
 
 
 def test_jit_and_vmap_of_tpoint_residuals(mmt):
-    model = px.AltAz(px.terms.tpoint(TERMS), azimuth=mmt.azimuth, residual_form="tpoint")
+    model = px.AltAz(_linear(TERMS), azimuth=mmt.azimuth, residual_form="tpoint")
     obs = mmt.observations
     direct = np.asarray(px.residuals(model, obs))
     jitted = np.asarray(eqx.filter_jit(px.residuals)(model, obs))
@@ -218,7 +224,7 @@ def test_command_line_fits_tpoint_residuals(mmt, capsys):
 
     from pointax.cli import main
 
-    assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--json"]) == 0
+    assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--form", "linear", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["residuals"] == "tpoint"
     x, *_ = _ols_reference(mmt)
@@ -239,7 +245,7 @@ class TwiceAzimuth(px.Term):
 
 
 def test_user_linear_term_without_skypoint_takes_the_fast_path():
-    terms = (*px.terms.tpoint("IA IE"), TwiceAzimuth())
+    terms = (*_linear("IA IE"), TwiceAzimuth())
     truth = px.AltAz(terms, residual_form="tpoint").set(IA=30 * ARCSEC, IE=-10 * ARCSEC, TwiceAzimuth=15 * ARCSEC)
     model = px.AltAz(terms, residual_form="tpoint")
     assert is_affine(model)
@@ -303,7 +309,7 @@ class CosAzimuthInElevation(px.Term):
 def test_batch_with_an_observation_at_the_zenith_equals_solo_fits():
     """At the pole the observed azimuth is the encoder's; the batch takes its sine and
     cosine (a branch that runs only then) and agrees with solo fits."""
-    terms = (*px.terms.tpoint("IA IE"), CosAzimuthInElevation())
+    terms = (*_linear("IA IE"), CosAzimuthInElevation())
     model = px.AltAz(terms, residual_form="tpoint")
     truth = model.set(IA=30 * ARCSEC, IE=-10 * ARCSEC, CosAzimuthInElevation=15 * ARCSEC)
     sites = []

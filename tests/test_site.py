@@ -1,4 +1,4 @@
-"""The structured evaluation of a site (pointax.fitting.fast_evaluation), its derivatives
+"""The fitting problem of a site (pointax.fitting.problem on pointax.fitting.fast_evaluation), its derivatives
 (pointax.fitting.fast_jacobian) and the small normal-equation solver: references are the
 plain per-observation model (pointax.residuals), jax.jacfwd of it, finite differences,
 and numpy's least squares."""
@@ -16,7 +16,7 @@ from pointax.fitting import normal_equations as ne
 from pointax.fitting import fast_evaluation as site
 from pointax.core.rotations import rot_z
 from pointax.core.simulate import encoder_grid
-from pointax.fitting.fast_evaluation import site_data, site_residuals
+from pointax.fitting.problem import site_data, site_residuals
 from pointax.fitting.fast_jacobian import residual_columns, residual_function
 
 RNG = np.random.default_rng(7)
@@ -37,7 +37,7 @@ def _cases():
     values = {n: px.arcsec(v) for n, v in zip(TPOINT8.split(), RNG.normal(0, 40, 8))}
     tt = px.Turntable("full").set(mu0=px.deg(0.07), nu0=px.deg(0.01), omega0=px.deg(-0.09), alpha0=px.deg(60.5), beta0=px.deg(165.9))
     enc = np.stack([RNG.uniform(0, 2 * np.pi, 40), px.deg(165.9) + RNG.uniform(0.2, 1.2, 40)], axis=1)
-    linear = px.AltAz(px.terms.tpoint(TPOINT8, values=values), azimuth="S-E")
+    linear = px.AltAz(px.terms.tpoint(TPOINT8, form="linear", values=values), azimuth="S-E")
     rigorous = px.AltAz(px.terms.tpoint(TPOINT8, form="rigorous", values=values))
     harmonic = px.AltAz(px.terms.tpoint("IA IE HACA2 HESE1", values={"HACA2": px.arcsec(20), "IA": px.arcsec(5)}))
     xy = px.XY("basic")
@@ -120,12 +120,12 @@ def test_a_pinned_zero_adds_nothing_where_its_unit_offset_is_infinite():
     would be NaN); fitted, it stays honest (not finite)."""
     from pointax.fitting.problem import define_problem
 
-    model = px.AltAz(px.terms.tpoint("IA IE NPAE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
+    model = px.AltAz(px.terms.tpoint("IA IE NPAE", form="linear", values={"IA": px.arcsec(20)}), residual_form="tpoint")
     obs = px.simulate(model, encoder_grid(), noise=px.arcsec(1), seed=3)
     target = np.array(obs.target)
     target[5] = [0.0, 0.0, 1.0]
     obs = px.Observations(obs.encoder, target, convention=obs.convention)
-    reference = px.AltAz(px.terms.tpoint("IA IE", values={"IA": px.arcsec(20)}), residual_form="tpoint")
+    reference = px.AltAz(px.terms.tpoint("IA IE", form="linear", values={"IA": px.arcsec(20)}), residual_form="tpoint")
     with jax.enable_x64(True):
         assert not np.all(np.isfinite(np.asarray(site_data(model, obs).sky_basis[2][0])))  # NPAE's, there
         pinned = define_problem(model, obs, np.array([True, True, False]))
@@ -166,17 +166,15 @@ def test_residual_function_derivative_with_respect_to_the_data():
         assert float(jnp.sum(g * direction)) == pytest.approx(float(ad), rel=1e-9, abs=1e-15)
 
 
-def test_normal_cholesky_matches_numpy_least_squares():
-    import lineax as lx
-
+def test_normal_equations_match_numpy_least_squares():
     rng = np.random.default_rng(11)
     a = rng.normal(size=(30, 6))
     a[:, 5] = a[:, 4] + 0.01 * a[:, 5]  # correlated columns, still full rank (cond(A^T A) ~ 1e5)
     b = rng.normal(size=30)
     with jax.enable_x64(True):
-        op = lx.MatrixLinearOperator(jnp.asarray(a))
-        x = lx.linear_solve(op, jnp.asarray(b), ne.NormalCholesky()).value
-        low, pivots = ne.cholesky(ne.normal_matrix([jnp.asarray(a[:, k]) for k in range(6)]))
+        cols = [jnp.asarray(a[:, k]) for k in range(6)]
+        low, pivots = ne.cholesky(ne.normal_matrix(cols))
+        x = ne.solve(low, [ne.inner(c, jnp.asarray(b)) for c in cols])
         inv = ne.inverse(low)
     ref = np.linalg.lstsq(a, b, rcond=None)[0]
     # Normal equations: errors grow with cond(A^T A) (~1e5 here) times the machine epsilon.
@@ -184,38 +182,6 @@ def test_normal_cholesky_matches_numpy_least_squares():
     assert np.max(np.abs(np.asarray(inv) - np.linalg.inv(a.T @ a))) < 1e-9 * np.linalg.cond(a.T @ a) * np.max(np.abs(np.linalg.inv(a.T @ a)))
     assert np.all(np.asarray(pivots) > 0) and np.min(np.asarray(pivots)) < 1e-3  # the correlated column shows
 
-
-@pytest.mark.parametrize("m", [3, ne.MAX_UNROLLED + 2])
-def test_cholesky_gauss_newton_keeps_the_last_factor(m):
-    # The same iterates as optimistix's GaussNewton with NormalCholesky, and after the
-    # last step the factor and pivots of J^T J at the state's Jacobian: references are
-    # numpy's Cholesky of jax.jacfwd's J^T J, and J's squared column norms.
-    import optimistix as optx
-
-    rng = np.random.default_rng(5)
-    t = np.linspace(0.0, 3.0, 4 * m)
-    truth = rng.normal(0.0, 0.5, m)
-    data = np.sum([truth[k] * np.cos((k + 1) * t + 0.3 * truth[k]) for k in range(m)], axis=0) + 1e-3 * rng.normal(size=t.size)
-
-    def fn(y, args):
-        return jnp.sum(jnp.stack([y[k] * jnp.cos((k + 1) * t + 0.3 * y[k]) for k in range(m)]), axis=0) - data
-
-    y0 = jnp.asarray(truth + 0.01)
-    with jax.enable_x64(True):
-        ours = ne.CholeskyGaussNewton(rtol=1e-12, atol=1e-14)
-        theirs = optx.GaussNewton(rtol=1e-12, atol=1e-14, linear_solver=ne.NormalCholesky())
-        sol_ours = optx.least_squares(fn, ours, y0, max_steps=50)
-        sol_theirs = optx.least_squares(fn, theirs, y0, max_steps=50)
-        state = sol_ours.state
-        jac = jax.jacfwd(lambda y: fn(y, None))(sol_ours.value)  # where the last step linearised
-        low = ne.factor_entries(state.descent_state.low)
-        low = np.array([[float(x) for x in row] for row in low])
-        pivots = np.asarray(state.descent_state.pivots)
-    np.testing.assert_array_equal(np.asarray(sol_ours.value), np.asarray(sol_theirs.value))
-    a = np.asarray(jac).T @ np.asarray(jac)
-    ref = np.linalg.cholesky(a)
-    np.testing.assert_allclose(low, ref, rtol=1e-10, atol=1e-12 * np.max(np.abs(ref)))
-    np.testing.assert_allclose(pivots, np.diag(ref) ** 2 / np.diag(a), rtol=1e-10)
 
 
 def test_entry_algebra_with_symbolic_signs():

@@ -31,7 +31,7 @@ from ..fitting.statistics import normalised_weights, statistics
 from ..core.model import Model
 from ..core.observations import Observations
 from .folds import Scheme
-from .statistics import axis_rms
+from ..fitting.statistics import axis_rms
 
 __all__ = ["STEP_TOLERANCE", "Builder", "FitState", "compiled_program"]
 

@@ -6,9 +6,9 @@ and parameters, per-site status.
     result.converged                                               # (S,) per site
     px.site_result(result, 7).report()                             # one site's report
 
-Every site first gets a fixed number of optimistix Gauss-Newton steps on the structured
-evaluation of :mod:`pointax.fitting.fast_evaluation` (``jax.vmap`` over sites, chunks of sites per compiled
-call); a site that does not converge there is refitted with :func:`pointax.fit`'s full
+Every site first gets the fast pass (:mod:`pointax.fitting.batch_fast_pass`: a fixed
+number of optimistix Gauss-Newton steps on the solo fit's problem definition,
+``jax.vmap`` over sites, chunks of sites per compiled call); a site that does not converge there is refitted with :func:`pointax.fit`'s full
 loop. A site whose data are bad (NaN in a used row, degenerate geometry, wild outliers)
 or whose fit diverges is flagged by its own ``converged`` and ``message`` and changes
 nothing for the others. Padding rows carry weight 0 and do not enter any statistic.
@@ -18,46 +18,31 @@ Parameters shared by all sites: :func:`pointax.fit_shared`.
 from __future__ import annotations
 
 import dataclasses
-import functools
 from collections.abc import Callable, Sequence
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import ArrayLike, Float
 
-from . import normal_equations
+from ..core.model import Model
+from ..core.observations import Observations
 from ..core.precision import float64
-from . import xla_options
-from .core import result_from_covariance
+from .batch_fast_pass import (
+    DEFAULT_STEPS,
+    TPOINT_START_STEPS,
+    compiled,
+    default_chunk_size,
+    fast_pass,
+    starts_in_tpoint_form,
+)
 from .options import FitOptions
+from .problem import is_affine
 from .ranges import range_warning, wrap_periodic
 from .residuals import check_convention
 from .result import FitResult, too_few_residuals
 from .solo import fit_model, options_from
-from ..core.model import Model
-from ..core.mounts import SphericalMount
-from .normal_equations import CholeskyGaussNewton
-from ..core.term import Term
-from ..core.observations import Observations
-from .fast_evaluation import (
-    SiteData,
-    is_affine,
-    observed_point,
-    site_geometry,
-    site_residuals,
-    with_sky_basis,
-)
-from .fast_jacobian import residual_function
-
-SUSPECT_PIVOT = 1e-8
-"""A relative Cholesky pivot of the normal matrix below this sends a site to the exact
-(SVD) statistics of the full loop: its parameters may be nearly indistinguishable."""
-
-DEFAULT_STEPS = 5
-"""Gauss-Newton steps of :func:`fit_batch`'s fast pass for models not affine in their
-parameters (with 4, 11 of 4,000 turntables went on to the full loop; with 3, all)."""
 
 __all__ = ["stack_observations", "batched_observations", "fit_batch", "site_result", "site_statuses"]
 
@@ -145,243 +130,16 @@ def start_values(model: Model, n_sites: int, values, what: str = "free parameter
     return values
 
 
-def _fixed_steps_fits(model: Model, y0, data: SiteData, steps: int, rtol: float, atol: float, chords: int = 0):
-    """A chunk of sites (``y0 (S, M)``, ``data`` with a leading site axis): exactly
-    ``steps`` optimistix Gauss-Newton steps for every site (no early exit: under ``vmap``
-    every site would run as long as the slowest anyway) with the structured residuals
-    of :mod:`pointax.fitting.fast_evaluation` and the :class:`NormalCholesky` solver
-    (:class:`pointax.fitting.normal_equations.CholeskyGaussNewton`, which keeps the last Cholesky
-    factor for the statistics), then the statistics
-    (:func:`_finish`, with ``chords`` chord steps). Returns the batched ``(FitResult, suspect)``.
-
-    The loop runs over the whole chunk and ``vmap`` acts inside it: vmapping the loop
-    instead made JAX batch its body twice while tracing (once more for every carried
-    value that starts the same for all sites), 0.35 s of the first call.
-    """
-    params = model.free_parameters
-    fn = residual_function(params)
-    solver = CholeskyGaussNewton(rtol=rtol, atol=atol)
-
-    def with_aux(y, a):
-        return fn(y, a), None
-
-    n = data.used.shape[-1]
-    f_struct = (jax.ShapeDtypeStruct((n,), y0.dtype), jax.ShapeDtypeStruct((n,), y0.dtype))
-    # The initial state for one site, broadcast to all sites, with each site's start as
-    # y_eval (where the first step evaluates; the rest of the state depends on the start
-    # only through its shape). optimistix's init traces the linearisation for its shapes,
-    # and under vmap JAX batched that trace too: 0.1 s of a fresh process's first call.
-    one_site = jax.tree.map(lambda x: x[0], (y0, data))
-    state = solver.init(with_aux, one_site[0], (model, one_site[1]), {}, f_struct, None, frozenset())
-    n_sites = y0.shape[0]
-    state = jax.tree.map(lambda x: jnp.broadcast_to(x, (n_sites, *x.shape)) if eqx.is_array(x) else x, state)
-    state = eqx.tree_at(lambda s: s.y_eval, state, y0)
-    # optimistix's own steps in a fixed-count loop (one traced step: compiles once; an
-    # unrolled loop compiled 2-3x longer and ran no faster, see benchmarks/batch_fit_notes.md).
-    dynamic, static = eqx.partition(state, eqx.is_array)
-
-    def one_step(y, dynamic, d):
-        y, state, _ = solver.step(with_aux, y, (model, d), {}, eqx.combine(dynamic, static), frozenset())
-        return y, eqx.filter(state, eqx.is_array)
-
-    def body(_, carry):
-        return jax.vmap(one_step)(*carry, data)
-
-    y, dynamic = jax.lax.fori_loop(0, steps, body, (y0, dynamic))
-    finish = lambda y, dynamic, d: _finish(model, y, eqx.combine(dynamic, static), d, steps, rtol, atol, chords)  # noqa: E731
-    return jax.vmap(finish)(y, dynamic, data)
-
-
-def _finish(
-    model: Model, y, state, data: SiteData, steps: int, rtol: float, atol: float, chords: int = 0
-) -> tuple[FitResult, Array]:
-    """One site after the fixed steps (``y``: the last accepted point, ``state`` the
-    solver's): the convergence test and the statistics.
-
-    With ``chords``, that many chord steps follow: Gauss-Newton updates from the
-    residuals evaluated afresh and the last step's Jacobian and Cholesky factor (a
-    model evaluation each, without derivatives: a fraction of a step). They converge
-    linearly at a rate of the relative change of the Jacobian over the last update,
-    so two of them finish what one Gauss-Newton step from a good start leaves, and the
-    convergence test is made on the last one.
-
-    Converged when the last update and the change of the residuals it made are within
-    the tolerances (optimistix's Cauchy test) and everything is finite. When the
-    residuals are affine in the parameters (:func:`pointax.fitting.fast_evaluation.is_affine`) the
-    Jacobian is the same everywhere, so the test is made on the update still to come
-    (from the final residuals), exact after a single step. The covariance comes from the
-    Cholesky factor of ``J^T J`` that the last step computed (the solver's descent keeps
-    it: factorising again here cost 0.2 s of compilation); ``suspect`` marks sites whose
-    factor is near-singular, for an exact (SVD) second look.
-    """
-    params = model.free_parameters
-    m = len(params)
-    # optimistix evaluates at y_eval and accepts y one step later: y_eval holds the last
-    # update, made from the residuals and Jacobian at y.
-    update = state.y_eval - y
-    y = state.y_eval
-    cols = normal_equations.columns(state.f_info.jac)
-    # The residuals at the final point from those at y and the Jacobian there: exact for
-    # affine models, and for the others wrong by the square of the last update (a site
-    # whose update is not below the tolerances goes to the full loop anyway). Evaluating
-    # the model once more cost a sixth of a step and 0.3 s of compilation.
-    step_change = _along(cols, update)
-    rw = tuple(b + dc for b, dc in zip(state.f_info.residual, step_change))  # 0 where unused
-    safe_w = jnp.where(data.sqrt_weight > 0, data.sqrt_weight, 1.0)
-    r = jnp.stack([jnp.where(data.used, x / safe_w, 0.0) for x in rw], axis=-1)
-    # The covariance from the last step's Jacobian and its factor (at the point before the
-    # last update, which is below the tolerances: the difference is of the order of that
-    # update).
-    low, pivots = normal_equations.factor_entries(state.descent_state.low), state.descent_state.pivots
-    for _ in range(chords):
-        rw = site_residuals(model.replace_parameters(params, [y[k] for k in range(m)]), data)
-        update = -normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
-        y = y + update
-        step_change = _along(cols, update)
-        rw = tuple(b + dc for b, dc in zip(rw, step_change))
-    if chords:
-        r = jnp.stack([jnp.where(data.used, x / safe_w, 0.0) for x in rw], axis=-1)
-    if is_affine(model):
-        # The same Jacobian everywhere: the update still to come, from the final residuals.
-        update = normal_equations.solve(low, [normal_equations.inner(c, rw) for c in cols])
-        f_change = _along(cols, update)
-    else:
-        f_change = step_change
-    fitted = model.replace_parameters(params, [y[k] for k in range(m)])
-    # Per residual component (a concatenation would copy every column once more).
-    small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y))
-    for change, now in zip(f_change, rw):
-        small = small & jnp.all(jnp.abs(change) <= atol + rtol * jnp.abs(now))
-    suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
-    unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
-    result = result_from_covariance(
-        fitted, y, unit_cov, r, jnp.stack(rw, axis=-1), data.used, steps + chords, small, "gauss-newton"
-    )
-    return result, suspect
-
-
-def _along(cols: list, update) -> list:
-    """``J @ update`` as the two residual components, from J's columns (0 with no column)."""
-    return [sum(update[k] * c[i] for k, c in enumerate(cols)) if cols else 0.0 for i in range(2)]
-
-
-@functools.cache
-def _compiled(fn, static_argnames: tuple[str, ...] = (), fast_options: bool = True):
-    return xla_options.jit(fn, fast_options, static_argnames=static_argnames)
-
-
-def uses_fast_compile_options(model: Model) -> bool:
-    """Whether the fast path compiles ``model``'s fit with :data:`pointax.fitting.xla_options.FAST_COMPILE_OPTIONS`:
-    not for the exact (sky) residual form with sky offsets, whose fixed-point iterations
-    ran twice as fast with XLA's default emitters (8 TPOINT terms, 1,024 sites: 0.51
-    against 1.05 s per call) and compiled no slower."""
-    return not _sky_form_with_sky_offsets(model)
-
-
-def _sky_form_with_sky_offsets(model: Model) -> bool:
-    """Whether ``model`` is fitted in the exact (sky) form and some term has a sky offset
-    (then the form solves a fixed point per observation)."""
-    return model.residual_form == "sky" and any(
-        type(t).sky_offset is not Term.sky_offset or type(t).sky_offset_at is not Term.sky_offset_at for t in model.terms
-    )
-
-
-def _site_data_batch(model, obs) -> SiteData:
-    """:func:`pointax.fitting.fast_evaluation.site_data` for a chunk (a leading site axis), with the
-    observed point for the whole chunk at once (so the mount's pole check is one test)."""
-    data, target = jax.vmap(lambda o: site_geometry(model, o))(obs)
-    if target is None:
-        return data
-    point = observed_point(model, data, target)
-    return jax.vmap(lambda d, p: with_sky_basis(model, d, p))(data, point)
-
-
-def _site_data_and_fits(model, y0, obs, steps: int, rtol: float, atol: float, tpoint_start: bool = False):
-    if tpoint_start:
-        # TPOINT's form of the same model is linear in the library's terms: one step
-        # solves it, and its solution is within the square of the corrections of the
-        # exact form's, so one exact step and two chord steps finish the fit, where
-        # five exact steps from the start values cost several times as much
-        # (benchmarks/batch_fit_notes.md).
-        start = model.with_residual_form("tpoint")
-        first, _ = _fixed_steps_fits(start, y0, _site_data_batch(start, obs), 1, rtol, atol)
-        y0 = jnp.where(jnp.all(jnp.isfinite(first.values), axis=-1, keepdims=True), first.values, y0)
-        result, suspect = _fixed_steps_fits(model, y0, _site_data_batch(model, obs), steps, rtol, atol, TPOINT_START_CHORDS)
-        return dataclasses.replace(result, iterations=result.iterations + 1), suspect  # the start's step counts
-    return _fixed_steps_fits(model, y0, _site_data_batch(model, obs), steps, rtol, atol)
-
-
-TPOINT_START_STEPS = 1
-"""Exact (sky form) Gauss-Newton steps after the TPOINT-form start (:func:`starts_in_tpoint_form`)."""
-
-TPOINT_START_CHORDS = 2
-"""Chord steps after them (:func:`_finish`)."""
-
-
-DEFAULT_CHUNK = 1024
-"""Sites per compiled call of :func:`fit_batch` by default."""
-
-SKY_FORM_CHUNK = 512
-"""Sites per compiled call for the exact (sky) form with sky offsets: its fixed point
-carries every parameter's derivative per observation, a larger working set per site
-(1,024 sites per chunk ran at two thirds of the rate of 512 or 256,
-``benchmarks/batch_fit_notes.md``)."""
-
-
-def default_chunk_size(model: Model) -> int:
-    """:func:`fit_batch`'s chunk size for ``model`` (``chunk_size='auto'``)."""
-    return SKY_FORM_CHUNK if _sky_form_with_sky_offsets(model) else DEFAULT_CHUNK
-
-
-def starts_in_tpoint_form(model: Model) -> bool:
-    """Whether the fast pass starts the exact (sky) form's fit of ``model`` from the
-    solution of its TPOINT form: a model with sky offsets (else the sky form is the
-    chain alone) on a mount with spherical angles (which TPOINT's form needs) whose
-    free parameters are all in linear sky-offset terms, so that one step solves the
-    TPOINT form. (With a free rotation term, say a wobble started 5 deg off in phase,
-    one step of the TPOINT form leaves too much for one exact step and two chords, and
-    every site went to the full loop where five exact steps had converged.)"""
-    return (
-        model.residual_form == "sky"
-        and isinstance(model.mount, SphericalMount)
-        and _sky_form_with_sky_offsets(model)
-        and all(model.terms[p.term].linear_sky_offset for p in model.free_parameters)
-    )
-
-
-def _fit_sites_fixed(model, values, obs, steps, rtol, atol):
-    """The fast pass over one chunk: the site data, then :func:`_fixed_steps_fits`.
-
-    With more than one step, one compiled call: the step loop takes the site data as
-    arrays, so XLA computes each of them once, and one module compiles faster than two
-    (compiled alone: 1.5-1.8 against 2.0-2.1 s for 1,024 turntables). With one step (affine models) there is no loop, and inside one computation XLA
-    on the CPU recomputes the data's arctangents, sines and cosines in every fusion that
-    uses them (measured: 136 copies, 20 M transcendentals per 4,000 sites; the TPOINT
-    fit 6.3-9 against 5.4-5.8 ms per 1,024 sites), so the site data are a call of their
-    own and handed over as arrays."""
-    statics = ("steps", "rtol", "atol")
-    fast = uses_fast_compile_options(model)
-    tpoint_start = starts_in_tpoint_form(model)
-    if steps > 1 or tpoint_start:
-        return _compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
-            model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=tpoint_start
-        )
-    data = _compiled(_site_data_batch, (), fast)(model, obs)
-    return _compiled(_fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)
-
-
 def _fit_sites(model, values, obs, options: FitOptions, active=None):
     """The full loop (:func:`pointax.fitting.fit_model`, the solo fit) for every site
     ``active`` marks (default all; padding sites are skipped, not fitted), one site after
-    another (``lax.map``): their step counts differ, and under ``vmap`` each ran as long
-    as the slowest. Compiled with the solo fit's compiler options
-    (:mod:`pointax.fitting.xla_options`): 64 sites of the wobble example (every site
-    leaves the fast pass) took 0.38 s with them against 1.17 s (compiled in 5.4 against
-    6.9 s), where a Python loop of ``px.fit`` took 0.56 s; under ``vmap`` 1.7 s."""
+    another (``lax.map``): their step counts differ, and under ``vmap`` each would run as
+    long as the slowest. Compiled with the solo fit's compiler options
+    (:mod:`pointax.fitting.xla_options`), which run it faster (``benchmarks/batch_fit_notes.md``)."""
     if active is None:
         active = np.ones(np.shape(values)[0], bool)
     dynamic, static = eqx.partition((model, values, obs, np.asarray(active)), eqx.is_array)
-    return _compiled(_full_loop, ("static", "options"))(dynamic, static, options)
+    return compiled(_full_loop, ("static", "options"))(dynamic, static, options)
 
 
 def _full_loop(dynamic, static, options: FitOptions):
@@ -468,9 +226,8 @@ def fit_batch(
     """Fit ``model`` to every site of a batch, each with its own parameters.
 
     How (least squares, ``loss="linear"``): every site first gets ``steps`` Gauss-Newton
-    steps, all sites in one compiled call with no per-site loop or branch (optimistix's
-    Gauss-Newton with the structured residuals of :mod:`pointax.fitting.fast_evaluation` and the
-    :class:`pointax.fitting.normal_equations.NormalCholesky` solver). A site whose last step
+    steps, all sites in one compiled call with no per-site loop or branch
+    (:mod:`pointax.fitting.batch_fast_pass`). A site whose last step
     does not meet the tolerances (optimistix's Cauchy test with ``rtol``, ``atol``), or
     whose normal matrix is near-singular, is then fitted again from its start with the
     full ``solver`` loop (:func:`pointax.fit`'s algorithm, SVD statistics): so every
@@ -479,8 +236,8 @@ def fit_batch(
     loop; robust losses always use it. The exact (sky) form of a model with sky
     offsets on a mount with spherical angles starts from the one-step solution of its
     TPOINT form, and its exact steps end with two chord steps
-    (:func:`starts_in_tpoint_form`): 4 times the rate of five exact steps from the
-    start values (``benchmarks/batch_fit_notes.md``).
+    (:func:`pointax.fitting.batch_fast_pass.starts_in_tpoint_form`), several times the
+    rate of five exact steps from the start values (``benchmarks/batch_fit_notes.md``).
 
     Args:
         model: the model (structure, fixed parameters and default starting values).
@@ -489,15 +246,14 @@ def fit_batch(
             the model's values for every site).
         steps: Gauss-Newton steps of the fast first pass (0: none). Default: 1 when the
             residuals are affine in the free parameters (``residual_form="tpoint"`` with
-            only TPOINT linear-form terms free, :func:`pointax.fitting.fast_evaluation.is_affine`: one step
+            only TPOINT linear-form terms free, :func:`pointax.fitting.problem.is_affine`: one step
             is the solution, and the check needs no second), 1 after the TPOINT-form
-            start (:func:`starts_in_tpoint_form`), else 5 (they take a start within a
+            start, else 5 (they take a start within a
             few tenths of a degree to float64 precision).
         solver, max_steps, rtol, atol, loss, loss_scale, reject: as in :func:`pointax.fit`.
         chunk_size: sites per compiled call (``None``: all at once; 'auto', the
-            default: :func:`default_chunk_size`). Chunks bound the memory and keep the
-            working set in the CPU's caches (1,024 sites per chunk ran 1.4x faster
-            than 4,096, see ``benchmarks/batch_fit_notes.md``);
+            default: :func:`pointax.fitting.batch_fast_pass.default_chunk_size`). Chunks
+            bound the memory and keep the working set in the CPU's caches;
             every chunk has the same shape (the last is padded), so one compilation
             serves them all. A batch smaller than a chunk is padded to the next power
             of two: batches of 100 and of 101 sites share one compilation.
@@ -549,7 +305,7 @@ def fit_batch(
         pending = []
         for start, stop in chunks:
             y0, obs = chunk_inputs(start, stop)
-            pending.append((start, stop, y0, obs, _fit_sites_fixed(model, y0, obs, int(steps), rtol, atol)))
+            pending.append((start, stop, y0, obs, fast_pass(model, y0, obs, int(steps), rtol, atol)))
         for start, stop, y0, obs, (out, suspect) in pending:
             n = stop - start
             again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
@@ -578,7 +334,7 @@ def fit_batch(
             if progress is not None:
                 progress(stop, n_sites)
     # Assembled on the host: JAX's slicing and concatenation (and jnp.asarray) would each
-    # compile a small computation per result field on the first call (0.6 s measured).
+    # compile a small computation per result field on the first call.
     result = jax.tree.map(lambda *xs: np.concatenate(xs), *results)
     # A site with no more residuals than free parameters fits every point, with every
     # sigma 0: refused, as px.fit refuses it (the reason: FitResult.message).

@@ -1,5 +1,7 @@
-"""The derivatives of a site's residuals (:func:`pointax.fitting.fast_evaluation.site_residuals`) with
-respect to the model's parameters, for the fits.
+"""The derivatives of a site's residuals (:func:`pointax.fitting.problem.site_residuals`)
+with respect to the model's parameters, for the batched and shared-parameter fits: the
+one custom derivative of the residual family (the solo fit differentiates the residuals
+with JAX's own forward mode).
 
 * **Jacobian columns one parameter at a time** (:func:`residual_columns`): a forward
   derivative with respect to one parameter skips every stage of the chain before
@@ -24,15 +26,14 @@ from jaxtyping import Array
 
 from ..core.model import Model, ParameterInfo
 from .fast_evaluation import (
-    SiteData,
     chain_angles,
     chain_pointing,
     direction_at,
     has_sky_offsets,
-    site_residuals,
     sky_offsets_at,
     tangent_offsets,
 )
+from .problem import SiteData, site_residuals
 
 __all__ = ["residual_columns", "residuals_and_columns", "residual_function"]
 
@@ -43,7 +44,7 @@ def _values(y, n: int) -> list:
 
 
 def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInfo]) -> list[tuple[Array, Array]]:
-    """Columns of the Jacobian of :func:`pointax.fitting.fast_evaluation.site_residuals` (weighted) with
+    """Columns of the Jacobian of :func:`pointax.fitting.problem.site_residuals` (weighted) with
     respect to ``params``: ``[(d rx/d p, d ry/d p), ...]``, one forward derivative per
     parameter (:func:`_sky_form_columns` for the sky form's fixed point)."""
     return residuals_and_columns(model, data, params)[1]
@@ -52,7 +53,7 @@ def residual_columns(model: Model, data: SiteData, params: Sequence[ParameterInf
 def residuals_and_columns(
     model: Model, data: SiteData, params: Sequence[ParameterInfo]
 ) -> tuple[tuple[Array, Array], list[tuple[Array, Array]]]:
-    """:func:`pointax.fitting.fast_evaluation.site_residuals` (weighted) and :func:`residual_columns`
+    """:func:`pointax.fitting.problem.site_residuals` (weighted) and :func:`residual_columns`
     together (the sky form's fixed point gives both from one loop)."""
     if params and model.residual_form != "tpoint" and has_sky_offsets(model, data.nominal):
         return _sky_form_columns(model, data, params)
@@ -160,8 +161,7 @@ def residual_function(params: Sequence[ParameterInfo]):
 def _scaled(t, column):
     """``t * column``, exactly 0 where ``t`` is: the solver takes the Jacobian's columns
     as the tangent map of unit vectors, and XLA cannot drop ``0 * column`` itself (NaN,
-    inf), so each column would be computed from every column's arrays (measured:
-    the TPOINT fit call 17% slower). Written with no constant (the zero is ``t``'s own,
+    inf), so each column would be computed from every column's arrays. Written with no constant (the zero is ``t``'s own,
     the test ``t``'s conversion to bool): ``jax.linearize`` stores each constant it meets
     as an array, which the batched fit carried from step to step and XLA could no longer
     fold away (``benchmarks/batch_fit_notes.md``, change 9)."""

@@ -136,9 +136,8 @@ _FORM_ANGLES = (0.0, math.pi / 2, math.pi, 0.7, 2.3, -1.9)
 
 
 def axis_form_uncached(axis_fn):
-    # All six angles in one compiled call, run at once even while a fit is traced. Op by
-    # op each operation compiled a kernel of its own (~0.1 s of a fit's first call), and
-    # so did the constants in a call made under jax.ensure_compile_time_eval (~0.2 s).
+    # All six angles in one compiled call, run at once even while a fit is traced: op by
+    # op (or under jax.ensure_compile_time_eval) each operation compiles a kernel of its own.
     try:
         traced = jax.jit(jax.vmap(axis_fn)).trace(jax.ShapeDtypeStruct((len(_FORM_ANGLES),), jnp.float64))
         if len(traced.jaxpr.in_avals) != 1:  # it reads traced values (the mount's fields)

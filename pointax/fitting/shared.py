@@ -13,8 +13,10 @@ each site's residuals depend on its own parameters and the shared ones only. It 
 solved with optimistix's Gauss-Newton on the whole network, with a linear solver
 (:class:`SharedSchur`) that eliminates every site's own parameters (vectorised over
 sites) and solves the small shared system that remains (the Schur complement): the
-cost grows linearly with the number of sites. Jacobians come from JAX
-(:mod:`pointax.fitting.fast_evaluation`).
+cost grows linearly with the number of sites. Each site's data and residuals are those
+of the batched fit (:func:`pointax.fitting.problem.site_data` for the whole network,
+:func:`pointax.fitting.fast_jacobian.residual_function` per site), and the statistics
+TPOINT's (:func:`pointax.fitting.statistics.statistics`) over the whole network.
 
 Sites whose data cannot be fitted on their own (a first pass fits every site with the
 shared parameters held at their starting values) are left out of the joint fit, so
@@ -33,20 +35,20 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 import optimistix as optx
-from jax.custom_derivatives import SymbolicZero
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from . import normal_equations as ne
-from ..core.precision import float64
-from .batch import batched_observations, check_batch, fit_batch, site_statuses, start_values
-from .core import result_from_covariance
-from .residuals import check_convention
-from .result import FitResult
 from ..core.model import Model
 from ..core.observations import Observations
-from .fast_evaluation import SiteData, site_data, site_residuals
-from .fast_jacobian import residual_columns
+from ..core.precision import float64
 from ..core.units import UNITS
+from . import normal_equations as ne
+from .batch import batched_observations, check_batch, fit_batch, site_statuses, start_values
+from .core import result_from_covariance
+from .fast_jacobian import residual_function
+from .problem import site_data, site_residuals
+from .residuals import check_convention
+from .result import FitResult
+from .statistics import statistics
 
 __all__ = ["fit_shared", "SharedFit"]
 
@@ -68,6 +70,8 @@ class SharedFit(eqx.Module):
         iterations: Gauss-Newton steps of the joint fit.
         sky_rms: TPOINT's Sky RMS over every included observation (radians); the
             sigmas are scaled by it.
+        popn_sd: TPOINT's Popn SD of the joint fit: the Sky RMS corrected for every
+            fitted parameter (each included site's own and the shared ones).
     """
 
     sites: FitResult
@@ -78,6 +82,7 @@ class SharedFit(eqx.Module):
     converged: Bool[Array, ""]
     iterations: Array
     sky_rms: Float[Array, ""]
+    popn_sd: Float[Array, ""]
     shared_names: tuple[str, ...] = eqx.field(static=True)
     shared_units: tuple[str, ...] = eqx.field(static=True)
 
@@ -117,7 +122,10 @@ class SharedFit(eqx.Module):
         for k, name in enumerate(self.shared_names):
             u = self.shared_units[k]
             lines.append(f"  {name:<10s} {self.shared_value(name):+12.6f} +- {self.shared_sigma(name):.6f} {u} (shared)")
-        lines.append(f"Sky RMS (all sites) = {float(self.sky_rms) / UNITS['arcsec']:.4f} arcsec")
+        arcsec = UNITS["arcsec"]
+        lines.append(
+            f"Sky RMS (all sites) = {float(self.sky_rms) / arcsec:.4f} arcsec, Popn SD = {float(self.popn_sd) / arcsec:.4f} arcsec"
+        )
         return "\n".join(lines)
 
 
@@ -194,82 +202,70 @@ class SharedSchur(lx.AbstractLinearSolver):
 
 def _only(active, x):
     """``x`` for the active sites, 0 (not NaN * 0) for the others: a site left out may hold NaN."""
-    return jnp.where(active[:, None] > 0, x, 0.0)
+    return jnp.where(active[:, None], x, 0.0)
 
 
 def _joint_residual_function(own_params, shared_params):
-    """``f((Y, p), (model, data, active)) -> (rx, ry)`` of shape ``(S, N)``, with Jacobian
-    columns from :func:`pointax.fitting.fast_jacobian.residual_columns` (a ``jax.custom_jvp``)."""
-    params = tuple(own_params) + tuple(shared_params)
-    m = len(own_params)
-
-    def site_model(model, y_site, p):
-        return model.replace_parameters(params, [y_site[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
-
-    def residual(y, p, model, data, active):
-        rx, ry = jax.vmap(lambda ys, d: site_residuals(site_model(model, ys, p), d))(y, data)
-        return _only(active, rx), _only(active, ry)
-
-    @jax.custom_jvp
-    def fn(y, p, model, data, active):
-        return residual(y, p, model, data, active)
-
-    def fn_jvp(primals, tangents):
-        y, p, model, data, active = primals
-        ty, tp = tangents[0], tangents[1]
-        if any(not isinstance(t, SymbolicZero) for t in jax.tree.leaves(tangents[2:], is_leaf=lambda t: isinstance(t, SymbolicZero))):
-            raise NotImplementedError("derivatives of a shared fit with respect to the data or fixed parameters")
-        out = residual(y, p, model, data, active)
-        cols = jax.vmap(lambda ys, d: residual_columns(site_model(model, ys, p), d, params))(y, data)
-        tx = jnp.zeros_like(out[0])
-        ty_out = [tx, tx]
-        for k, (cx, cy) in enumerate(cols):
-            if k < m:
-                if isinstance(ty, SymbolicZero):
-                    continue
-                w = ty[:, k][:, None]
-            else:
-                if isinstance(tp, SymbolicZero):
-                    continue
-                w = tp[k - m]
-            ty_out = [ty_out[0] + w * cx, ty_out[1] + w * cy]
-        return out, (_only(active, ty_out[0]), _only(active, ty_out[1]))
-
-    fn.defjvp(fn_jvp, symbolic_zeros=True)
+    """``f((Y, p), (model, data, active)) -> (rx, ry)`` of shape ``(S, N)``: every site's
+    weighted residuals with its own parameters ``Y[s]`` and the shared ones ``p``, 0 for
+    the sites not ``active``; the residual function of the batched fit
+    (:func:`pointax.fitting.fast_jacobian.residual_function`, whose derivative is made of
+    the Jacobian's columns) for each site."""
+    site_fn = residual_function(tuple(own_params) + tuple(shared_params))
 
     def residuals_of(yp, args):
         y, p = yp
         model, data, active = args
-        return fn(y, p, model, data, active)
+        rx, ry = jax.vmap(lambda ys, d: site_fn(jnp.concatenate([ys, p]), (model, d)))(y, data)
+        return _only(active, rx), _only(active, ry)
 
-    return residuals_of, site_model
+    return residuals_of
 
 
 @eqx.filter_jit
 def _joint_fit(model, own_params, shared_params, y0, p0, obs, included, max_steps, rtol, atol):
-    fn, site_model = _joint_residual_function(own_params, shared_params)
-    data = jax.vmap(lambda o: site_data(model, o))(obs)
-    active = jnp.where(included, 1.0, 0.0)
-    args = (model, data, active)
+    """The joint Gauss-Newton fit of the ``included`` sites, then TPOINT's statistics:
+    the shared block of the covariance and the Sky RMS and Popn SD over every included
+    observation (:func:`pointax.fitting.statistics.statistics`), and each site's
+    :class:`FitResult` with its block of the joint covariance."""
+    fn = _joint_residual_function(own_params, shared_params)
+    data = site_data(model, obs)
+    args = (model, data, included)
     solver = optx.GaussNewton(rtol=rtol, atol=atol, linear_solver=SharedSchur(~included))
     sol = optx.least_squares(fn, solver, (y0, p0), args=args, max_steps=max_steps, throw=False)
     y, p = sol.value
-    # Statistics at the solution: the joint covariance, per-site and shared blocks.
-    operator = lx.JacobianLinearOperator(lambda yp, a: fn(yp, a), (y, p), args)
-    own, common, low, ainv_b, schur = SharedSchur(~included).init(operator, {})
-    rw = fn((y, p), args)
-    n_all = jnp.sum(jnp.where(included[:, None], data.used, False))
-    sky_rms = jnp.sqrt((jnp.sum(rw[0] ** 2) + jnp.sum(rw[1] ** 2)) / n_all)
-    m, n_shared = len(own_params), len(shared_params)
-    schur_inv = jnp.linalg.inv(schur) if n_shared else jnp.zeros((0, 0))
-    n_sites = y.shape[0]
+    # The Jacobian at the solution, linearised once (its columns computed once for all
+    # the products the Schur complement takes).
+    rw, linear = jax.linearize(lambda yp: fn(yp, args), (y, p))
+    operator = lx.FunctionLinearOperator(linear, jax.eval_shape(lambda: (y, p)))
+    _, _, low, ainv_b, schur = SharedSchur(~included).init(operator, {})
+    m, n_shared, n_sites = len(own_params), len(shared_params), y.shape[0]
+    schur_inv = jnp.linalg.inv(schur)
     unit = [[jnp.full((n_sites,), 1.0 if i == j else 0.0) for i in range(m)] for j in range(m)]
     a_inv = jnp.transpose(jnp.stack([ne.solve(low, e) for e in unit], axis=-1), (1, 0, 2))  # (S, M, M)
     ab = jnp.transpose(jnp.stack(ainv_b, axis=-1), (1, 0, 2))  # (S, M, P): A^-1 B per site
-    site_cov = (a_inv + ab @ schur_inv @ jnp.swapaxes(ab, -1, -2)) * sky_rms**2
-    shared_cov = schur_inv * sky_rms**2
-    converged = (sol.result == optx.RESULTS.successful) & jnp.isfinite(sky_rms) & jnp.all(jnp.isfinite(p))
-    return y, p, site_cov, shared_cov, sky_rms, converged, sol.stats["num_steps"], data
+    site_unit_cov = a_inv + ab @ schur_inv @ jnp.swapaxes(ab, -1, -2)  # blocks of (J^T J)^-1
+    # The joint fit's statistics: every included observation, every fitted parameter.
+    used = data.used & included[:, None]
+    weighted = jnp.stack(rw, axis=-1)  # (S, N, 2), 0 where not used
+    n_free = jnp.sum(included) * m + n_shared
+    joint = statistics(weighted.reshape(-1, 2), used.reshape(-1), n_free, schur_inv)
+    converged = (sol.result == optx.RESULTS.successful) & jnp.isfinite(joint.sky_rms) & jnp.all(jnp.isfinite(p))
+    iterations = sol.stats["num_steps"]
+    params = tuple(own_params) + tuple(shared_params)
+    fixed_shared = tuple(q.name for q in shared_params)
+
+    def one(ys, unit_cov, d, rw_site):
+        fitted = model.replace_parameters(params, [ys[k] for k in range(m)] + [p[q] for q in range(n_shared)])
+        fitted = fitted.fix(*fixed_shared)
+        r = jnp.stack(site_residuals(fitted, d, weighted=False), axis=-1)
+        # Sigmas scaled by the Sky RMS of all sites together (the joint fit's).
+        return result_from_covariance(
+            fitted, ys, unit_cov, r, rw_site, d.used, iterations, converged, "gauss-newton", scale=joint.sky_rms
+        )
+
+    sites = jax.vmap(one)(y, site_unit_cov, data, weighted)
+    return sites, p, joint, converged, iterations
 
 
 @float64
@@ -328,46 +324,29 @@ def fit_shared(
         np.asarray(observations.weight, np.float64),
         observations.convention,
     )
-    y, p, site_cov, shared_cov, sky_rms, converged, iterations, data = _joint_fit(
+    sites, p, joint, converged, iterations = _joint_fit(
         model, own_params, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(included), max_steps, rtol, atol
     )
-    sites = _site_results(model, own_params, shared_params, y, p, site_cov, data, converged, iterations)
     # Sites left out keep their solo (first-pass) result.
     # The solo fits held the shared parameters fixed: same leaves, another `fixed` set.
     solo_model = jax.tree.unflatten(jax.tree.structure(sites.model), jax.tree.leaves(first.model))
     first = dataclasses.replace(first, model=solo_model, solver="gauss-newton")
     sites = jax.tree.map(
-        lambda joint, solo: jnp.where(jnp.reshape(jnp.asarray(included), (-1,) + (1,) * (jnp.ndim(joint) - 1)), joint, solo),
+        lambda in_joint, solo: jnp.where(jnp.reshape(jnp.asarray(included), (-1,) + (1,) * (jnp.ndim(in_joint) - 1)), in_joint, solo),
         sites,
         first,
     )
     return SharedFit(
         sites=sites,
         shared_values=p,
-        shared_sigmas=jnp.sqrt(jnp.diag(shared_cov)),
-        shared_covariance=shared_cov,
+        shared_sigmas=joint.sigmas,
+        shared_covariance=joint.covariance,
         included=jnp.asarray(included),
         converged=converged,
         iterations=iterations,
-        sky_rms=sky_rms,
+        sky_rms=joint.sky_rms,
+        popn_sd=joint.popn_sd,
         shared_names=tuple(q.name for q in shared_params),
         shared_units=tuple(q.unit for q in shared_params),
     )
 
-
-@eqx.filter_jit
-def _site_results(model, own_params, shared_params, y, p, site_cov, data: SiteData, converged, iterations) -> FitResult:
-    params = tuple(own_params) + tuple(shared_params)
-    m = len(own_params)
-
-    def one(ys, cov, d):
-        fitted = model.replace_parameters(params, [ys[k] for k in range(m)] + [p[q] for q in range(len(shared_params))])
-        fitted = fitted.fix(*(q.name for q in shared_params))
-        r = site_residuals(fitted, d, weighted=False)
-        rw = jnp.stack([part * d.sqrt_weight for part in r], axis=-1)
-        # cov is already scaled by the Sky RMS of all sites together.
-        return result_from_covariance(
-            fitted, ys, cov, jnp.stack(r, axis=-1), rw, d.used, iterations, converged, "gauss-newton", scale=1.0
-        )
-
-    return jax.vmap(one)(y, site_cov, data)

@@ -53,9 +53,8 @@ def fit_model(model: Model, obs: Observations, options: FitOptions, caption: str
 @functools.cache
 def _fit_core_jit():
     """:func:`fit_core` compiled in memory (no programs folder), with the faster
-    compiler options (:mod:`pointax.fitting.xla_options`: the MMT run's 8-term fit compiled
-    in 0.94 s against 1.92 s, to an executable 10% smaller that runs about as fast:
-    2.4 against 2.1 ms)."""
+    compiler options (:mod:`pointax.fitting.xla_options`: it compiles in half the time,
+    to a smaller executable that runs about as fast)."""
 
     def run(dynamic, static, options):
         return fit_core(*eqx.combine(dynamic, static), options)
