@@ -199,7 +199,7 @@ def test_tpoint_graphs_fit_the_page(mmt, tmp_path, command):
 
 def test_heliostat_network_and_families_figures_fit_the_page(tmp_path):
     from pointax.analysis.comparison import Comparison, FamilyStats
-    from pointax.analysis.statistics import AxisRMS
+    from pointax.fitting.statistics import AxisRMS
     from pointax.analysis.heliostat import HeliostatCalibration
     from pointax.analysis.network import NetworkResult
     from pointax.plots import families_figure, heliostat_figure, network_figure

@@ -24,15 +24,19 @@ def no_compilation_cache(monkeypatch):
     monkeypatch.setenv("POINTAX_JAX_CACHE", "")
 
 
+# TPOINT's linear terms: the NumPy reference computes their residuals.
+MASKED_FIT = ["fit", str(MMT_DAT), "--azimuth", "S-E", "--mask", "39,79", "--form", "linear"]
+
+
 @pytest.fixture(scope="module")
 def masked_fit():
-    """``pointax fit --mask 39,79 --json`` of the MMT run (sky residuals), as printed."""
+    """``pointax fit --mask 39,79 --form linear --json`` of the MMT run (sky residuals), as printed."""
     import contextlib
     import io
 
     buffer = io.StringIO()
     with contextlib.redirect_stdout(buffer):
-        code = main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--mask", "39,79", "--json"])
+        code = main([*MASKED_FIT, "--json"])
     assert code == 0
     return json.loads(buffer.getvalue())
 
@@ -61,7 +65,7 @@ def test_entries_against_the_file_and_numpy_residuals(masked_fit):
 
 
 def test_list_prints_an_slist_table(masked_fit, capsys):
-    assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--mask", "39,79", "--list"]) == 0
+    assert main([*MASKED_FIT, "--list"]) == 0
     out = capsys.readouterr().out
     report, table = out.split("Residuals, observed minus model", 1)
     assert "Sky RMS" in report and "(azimuth S-E)" in table.splitlines()[0]
@@ -116,3 +120,33 @@ def test_entries_reuse_the_fit_and_compile_at_most_once():
         got = np.array([[e["dx_arcsec"], e["de_arcsec"]] for e in entries])
         np.testing.assert_allclose(got, fresh, rtol=0, atol=1e-9)
         assert [e["masked"] for e in entries] == list(masked)
+
+
+@pytest.mark.parametrize("form", ["sky", "tpoint"])
+def test_plot_data_equal_the_listing_exactly(form):
+    """The plots, the HTML report and the listing show the same residual at every row,
+    masked ones included, in the fit's own residual form: all take them from
+    :func:`pointax.fitting.masking.observation_residuals`."""
+    import pointax as px
+    from pointax.analysis.listing import format_listing, observation_entries
+    from pointax.plots.data import residual_data
+
+    run = px.io.read_tpoint(MMT_DAT, azimuth="S-E")
+    masked = np.zeros(len(run), bool)
+    masked[[38, 78]] = True
+    weight = np.where(masked, 0.0, 1.0)
+    obs = px.Observations(run.observations.encoder, run.observations.target, weight, run.observations.convention)
+    model = px.AltAz(px.terms.tpoint(" ".join(EIGHT)), azimuth=run.azimuth, residual_form=form)
+    result = px.fit(model, obs)
+    entries = observation_entries(run, result, masked)
+    data = residual_data(result, obs)
+    listed = np.array([[e["dx_arcsec"], e["de_arcsec"]] for e in entries])
+    np.testing.assert_array_equal(data.residuals, listed)
+    np.testing.assert_array_equal(data.distance, [e["ds_arcsec"] for e in entries])
+    np.testing.assert_array_equal(data.masked, masked)
+    np.testing.assert_array_equal(data.used, [e["used"] for e in entries])
+    assert np.all(np.hypot(*listed[masked].T) > 0.01)  # the masked rows are evaluated, not the fit's 0
+    # The Sky RMS the listing prints is the fit's, as the plots' circle and title.
+    (rms,) = [line for line in format_listing(run, result, masked).splitlines() if line.startswith("Sky RMS")]
+    assert rms.endswith(f"{float(result.sky_rms) / px.units.ARCSEC:.4f}")
+    assert data.sky_rms == float(result.sky_rms) / px.units.ARCSEC

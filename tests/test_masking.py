@@ -32,7 +32,7 @@ def run():
 
 
 def fit_json(capsys, *options) -> dict:
-    code = main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--json", *options])
+    code = main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--residuals", "tpoint", "--form", "linear", "--json", *options])
     out = json.loads(capsys.readouterr().out)
     assert code == 0
     return out

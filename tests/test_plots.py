@@ -266,7 +266,7 @@ def test_network_figure_shows_each_sites_rms_and_status():
 
 def test_families_figure_shows_rms_in_and_out_of_sample():
     from pointax.analysis.comparison import Comparison, FamilyStats
-    from pointax.analysis.statistics import AxisRMS
+    from pointax.fitting.statistics import AxisRMS
     from pointax.plots import families_figure
 
     def row(label, total_in, total_out, m, bic):
@@ -341,3 +341,22 @@ def test_equatorial_fit_is_drawn_in_declination_axes_and_on_the_sky():
     (q,) = [c for c in fit_figure(result, obs, "sky").axes[0].collections if c.get_gid() == "used-vectors"]
     np.testing.assert_allclose(q.U, d_az * np.cos(az) - d_el * np.sin(az), atol=1e-3)
     np.testing.assert_allclose(q.V, -d_az * np.sin(az) - d_el * np.cos(az), atol=1e-3)
+
+
+def test_drawn_residuals_and_rms_circle_are_the_listings(mmt):
+    """What the scatter panel draws is the listing's residuals to the last bit, and its
+    circle is the fit's Sky RMS (the one the report and the listing print)."""
+    from pointax.analysis.listing import observation_entries
+
+    run, obs, result = mmt
+    masked = np.zeros(len(run), bool)
+    masked[list(MASKED)] = True
+    listed = np.array([[e["dx_arcsec"], e["de_arcsec"]] for e in observation_entries(run, result, masked)])
+    fig = fit_figure(result, obs, "scatter")
+    ax = fig.axes[0]
+    for gid, mask in (("used", ~masked), ("masked", masked)):
+        (line,) = artists(ax, gid)
+        np.testing.assert_array_equal(np.column_stack(line.get_data()), listed[mask])
+    (circle,) = artists(ax, "rms-circle")
+    radius = np.hypot(*circle.get_data())
+    np.testing.assert_allclose(radius, float(result.sky_rms) / px.units.ARCSEC, rtol=1e-12)

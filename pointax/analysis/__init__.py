@@ -1,7 +1,7 @@
 """Choosing a pointing model: fair comparison of model families and FAUTO-style
 automatic model building.
 
-    pointax/analysis/statistics.py      per-axis RMS (the level-mount paper's eqs 21-23), AIC and BIC
+    pointax/analysis/per_axis.py        per-axis figures: axis angles or sky offsets (the figures: fitting/statistics.py)
     pointax/analysis/folds.py           out-of-sample schemes: holdout sets, k-fold cross-validation
     pointax/analysis/families.py        model families by name (X-Y paper families, TPOINT alt-az sets)
     pointax/analysis/comparison.py      compare(): families side by side, the paper's Table 3
@@ -21,7 +21,8 @@ from .fauto import FAUTO_PHYSICAL, Fauto, FautoStep, fauto, harmonic_candidates
 from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, EQUATORIAL_FAMILIES, EQUATORIAL_HARMONICS, family_model
 from .folds import fold_indices, holdout_indices
 from .model_building import BuildStep, ModelBuild, build_model
-from .statistics import PER_AXIS, AxisRMS, axis_rms, information_criteria
+from ..fitting.statistics import AxisRMS, axis_rms, information_criteria
+from .per_axis import PER_AXIS
 
 __all__ = [
     "ALTAZ_FAMILIES",

@@ -4,7 +4,7 @@ level-mount paper's Table 3 (:class:`Comparison`).
 :func:`compare` fits several model families to the same observations and reports, per
 family, what a pointing engineer needs to choose between them: in-sample and
 out-of-sample per-axis RMS (eqs 21-23), TPOINT's Sky RMS, AIC and BIC and the
-significance of each parameter (:mod:`pointax.analysis.statistics` defines them), with
+significance of each parameter (:mod:`pointax.fitting.statistics` defines them all), with
 a holdout or k-fold scheme (:mod:`pointax.analysis.folds`). Families are
 :class:`pointax.Model` objects or names (:mod:`pointax.analysis.families`).
 
@@ -25,24 +25,18 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..core.precision import float64
-from ..fitting.residuals import residuals
-from ..fitting.result import FitResult
-from ..fitting.solo import fit
 from ..core.model import Model
 from ..core.observations import Observations
-from ..fitting.progress import progress_bar
+from ..core.precision import float64
 from ..core.units import ARCSEC
+from ..fitting.progress import progress_bar
+from ..fitting.residuals import residuals
+from ..fitting.result import FitResult, finite_or_none
+from ..fitting.solo import fit
+from ..fitting.statistics import AxisRMS, axis_rms, information_criteria, significance, sky_rms
 from .families import family_model
 from .folds import evaluation_scheme
-from .statistics import (
-    AxisRMS,
-    axis_rms,
-    finite_or_none,
-    information_criteria,
-    resolve_per_axis,
-    second_axis_cosines,
-)
+from .per_axis import resolve_per_axis, second_axis_cosines
 
 __all__ = ["BEFORE", "FamilyStats", "Comparison", "compare"]
 
@@ -104,7 +98,8 @@ class FamilyStats:
         in_sample: :class:`AxisRMS` of the in-sample residuals (eqs 21-23).
         sky_rms: TPOINT's Sky RMS of the in-sample fit, radians.
         out_of_sample: :class:`AxisRMS` of the out-of-sample predictions, or ``None``.
-        log_likelihood, aic, bic: of the in-sample fit (:mod:`pointax.analysis.statistics`).
+        log_likelihood, aic, bic: of the in-sample fit
+            (:func:`pointax.fitting.statistics.information_criteria`).
         significance: ``value / sigma`` of each fitted parameter, by name.
         warnings: the fit's warnings (:meth:`pointax.FitResult.warnings`: parameters the
             data cannot tell apart, strong correlations, non-convergence), and the
@@ -275,16 +270,13 @@ def _row(label, model, result, n_params, r_in, r_out, cos_in, cos_out, warnings_
     ins = axis_rms(r_in, cos_in)
     out = None if r_out is None else axis_rms(r_out, cos_out)
     log_l, aic, bic = information_criteria(r_in, n_params)
-    sky = math.sqrt(float(np.sum(np.asarray(r_in) ** 2)) / len(r_in))
     if result is not None:
-        values, sigmas = np.asarray(result.values), np.asarray(result.sigmas)
-        z = np.where(np.isfinite(sigmas) & (sigmas > 0), values / np.where(sigmas > 0, sigmas, 1.0), 0.0)
-        significance = {n: float(v) for n, v in zip(result.names, z)}
+        sky = float(result.sky_rms)
+        z = dict(zip(result.names, significance(result.values, result.sigmas).tolist()))
     else:
-        significance = {}
-    return FamilyStats(
-        label, model, result, n_params, ins, sky, out, log_l, aic, bic, significance, tuple(warnings_), converged
-    )
+        sky = float(sky_rms(jnp.asarray(r_in), jnp.ones(len(r_in), bool)))
+        z = {}
+    return FamilyStats(label, model, result, n_params, ins, sky, out, log_l, aic, bic, z, tuple(warnings_), converged)
 
 
 @float64
@@ -297,7 +289,7 @@ def compare(
     seed: int = 0,
     per_axis: str | None = None,
     naming: str = "tpoint",
-    form: str = "linear",
+    form: str = "rigorous",
     solver: str = "lm",
     max_steps: int = 256,
     progress: bool = False,

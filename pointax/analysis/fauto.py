@@ -45,7 +45,8 @@ from .building_fits import Builder, FitState, _steps_program
 from .families import family_model
 from ..fitting.residuals import as_observations
 from .folds import evaluation_scheme
-from .statistics import finite_or_none, resolve_per_axis, second_axis_cosines
+from ..fitting.result import finite_or_none
+from .per_axis import resolve_per_axis, second_axis_cosines
 
 __all__ = ["FAUTO_PHYSICAL", "FautoStep", "Fauto", "fauto", "harmonic_candidates"]
 
@@ -329,7 +330,7 @@ def fauto(
     keep_start: bool = True,
     outlier_sigmas: float = 3.0,
     correlated: float = 0.95,
-    form: str = "linear",
+    form: str = "rigorous",
 ) -> Fauto:
     """TPOINT-style automatic model building (FAUTO; the module docstring gives the rule).
 
@@ -350,7 +351,7 @@ def fauto(
         outlier_sigmas: observations whose on-sky residual exceeds this many Popn SD are
             reported as weak outlier candidates (default 3).
         correlated: fitted pairs with ``|r|`` at least this are reported (default 0.95).
-        form: 'linear' or 'rigorous' TPOINT term forms.
+        form: 'rigorous' (default) or 'linear' TPOINT term forms.
 
     Returns:
         :class:`Fauto`; ``print(result.report())``; ``result.write_model(path)``.

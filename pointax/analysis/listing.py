@@ -6,8 +6,10 @@ file's azimuth convention; hour angle and declination for an equatorial run) and
 residuals of the fitted model: cross-elevation ``dX = dA cos E`` (cross-declination
 ``dH cos dec``), elevation ``dE`` (declination) and the on-sky distance
 ``dS = sqrt(dX^2 + dE^2)``,
-observed minus model, arcsec. Residuals of masked observations are evaluated with the
-same fitted model, so a listing shows how far a masked star lies from the fit.
+observed minus model, arcsec, in the fit's residual form. They are those of
+:func:`pointax.fitting.masking.observation_residuals`, as the plots' and the report's:
+masked observations' are evaluated with the same fitted model, so a listing shows how
+far a masked star lies from the fit.
 """
 
 from __future__ import annotations
@@ -16,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from ..fitting.masking import fit_residuals
 from ..core.units import ARCSEC, DEG
+from ..fitting.masking import observation_residuals, on_sky
 
 __all__ = ["observation_entries", "format_listing", "LISTING_KEYS", "EQUATORIAL_KEYS"]
 
@@ -54,10 +56,9 @@ def _equatorial(run) -> bool:
 
 def _columns(run, result, masked, residuals=None) -> dict[str, np.ndarray]:
     n = len(run)
-    masked = np.zeros(n, bool) if masked is None else np.asarray(masked, bool)
-    if masked.shape != (n,):
-        raise ValueError(f"masked must have shape ({n},), got {masked.shape}")
-    r = (fit_residuals(result, run.observations) if residuals is None else np.asarray(residuals, np.float64)) / ARCSEC
+    masked = np.zeros(n, bool) if masked is None else masked
+    rows = observation_residuals(result, run.observations, masked=masked, residuals=residuals)
+    r = rows.residuals / ARCSEC
     lines = getattr(run, "lines", None)
     return {
         "row": np.arange(1, n + 1),
@@ -67,10 +68,10 @@ def _columns(run, result, masked, residuals=None) -> dict[str, np.ndarray]:
         "raw": np.asarray(run.encoder, np.float64) / DEG,
         "dx": r[:, 0],
         "de": r[:, 1],
-        "ds": np.hypot(r[:, 0], r[:, 1]),
-        "used": np.asarray(result.used, bool),
-        "masked": masked,
-        "outlier": np.asarray(result.outliers, bool),
+        "ds": on_sky(r),
+        "used": rows.used,
+        "masked": rows.masked,
+        "outlier": rows.outlier,
     }
 
 
@@ -85,8 +86,8 @@ def observation_entries(run, result, masked=None, residuals=None) -> list[dict[s
         result: the :class:`pointax.FitResult` of a fit to ``run``.
         masked: optional ``(n,)`` bool, the observations the fit was told to leave out.
         residuals: optional ``(n, 2)`` residuals (radians) of ``result.model`` at every
-            observation, when the caller has them (default: the fit's own, and those of
-            the masked observations evaluated, :func:`pointax.fitting.masking.fit_residuals`).
+            observation, when the caller has them (default:
+            :func:`pointax.fitting.masking.observation_residuals`).
 
     Returns:
         Dicts with :data:`LISTING_KEYS`: ``row`` (1-based, TPOINT's numbering),
@@ -151,5 +152,5 @@ def format_listing(run, result, masked=None) -> str:
         + (f", {int(c['outlier'].sum())} outlier(s) (O)" if c["outlier"].any() else "")
     )
     if used.any():
-        lines.append(f"Sky RMS of the used observations = {np.sqrt(np.mean(c['ds'][used] ** 2)):.4f}")
+        lines.append(f"Sky RMS of the used observations = {float(result.sky_rms) / ARCSEC:.4f}")
     return "\n".join(lines)

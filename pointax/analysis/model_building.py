@@ -5,7 +5,7 @@ predict unseen stars better, dropping those that are not, and record the path
 
 Its fits, and the screening of the candidates, are
 :mod:`pointax.analysis.building_fits`'s. The figures are those of
-:mod:`pointax.analysis.statistics`; the out-of-sample schemes those of
+:mod:`pointax.fitting.statistics`; the out-of-sample schemes those of
 :mod:`pointax.analysis.folds`.
 """
 
@@ -30,7 +30,8 @@ from ..core.units import ARCSEC, UNITS
 from .building_fits import Builder, compiled_program
 from .families import family_model
 from .folds import evaluation_scheme, integer_at_least
-from .statistics import finite_or_none, resolve_per_axis, second_axis_cosines
+from ..fitting.result import finite_or_none
+from .per_axis import resolve_per_axis, second_axis_cosines
 
 __all__ = ["BuildStep", "ModelBuild", "build_model"]
 
@@ -176,7 +177,7 @@ def build_model(
     max_steps: int = 40,
     per_axis: str | None = None,
     naming: str = "tpoint",
-    form: str = "linear",
+    form: str = "rigorous",
     progress: bool = False,
 ) -> ModelBuild:
     """Build a model automatically by cross-validation: add candidate terms that are

@@ -1,4 +1,4 @@
-"""Masks of a pointing run: which observations a fit leaves out (weight 0).
+"""Masks of a pointing run, and a fit's residual at every observation of it.
 
 A masked observation stays in the run and in every listing; only its weight is 0, so
 the model's structure does not change and a refit does not compile again (see the
@@ -6,8 +6,11 @@ README, "Refits do not recompile").
 
 * :func:`parse_rows` reads TPOINT-style row lists (``"17,19-21"``, rows counted from 1
   in file order, as TPOINT numbers observations).
-* :func:`all_residuals` evaluates a model's residuals at *every* observation, masked or
-  not (a fit's own ``residuals`` are 0 where the weight was 0).
+* :func:`observation_residuals` is a fit's residual at *every* observation of its run,
+  in the fit's own residual form, each flagged used, masked or outlier: what the
+  listing, the plots, the HTML report and TPOINT's graphics show (a fit's own
+  ``residuals`` are 0 where the weight was 0).
+* :func:`all_residuals` evaluates a model's residuals at every observation.
 * :func:`mask_above` is TPOINT's ``MASK R > x``: the observations whose on-sky residual
   in the current fit exceeds ``x`` arcsec.
 
@@ -22,12 +25,22 @@ its per-axis sigma; :func:`pointax.fitting.robust_sigma`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..core.precision import float64
 from ..core.units import ARCSEC
 
-__all__ = ["parse_rows", "format_rows", "all_residuals", "fit_residuals", "on_sky", "mask_above"]
+__all__ = [
+    "parse_rows",
+    "format_rows",
+    "ObservationResiduals",
+    "observation_residuals",
+    "all_residuals",
+    "on_sky",
+    "mask_above",
+]
 
 
 def parse_rows(spec: str, n: int, option: str = "rows") -> np.ndarray:
@@ -94,34 +107,109 @@ _COMPILED: list = []
 
 
 def _residuals_compiled():
-    """:func:`pointax.residuals`, compiled (op by op, the vmap over observations
-    compiled some 70 small programs: 4 s of every ``pointax fit --json``)."""
+    """:func:`pointax.residuals`, compiled once: evaluated op by op, its vmap over the
+    observations compiles dozens of small programs on every call."""
     if not _COMPILED:
         import equinox as eqx
 
-        from . import residuals
+        from .residuals import residuals
 
         _COMPILED.append(eqx.filter_jit(residuals))
     return _COMPILED[0]
 
 
-def fit_residuals(result, observations) -> np.ndarray:
-    """``(n, 2)`` residuals of ``result.model`` at every observation of the run it was
-    fitted to, radians: the fit's own where it had them (every observation with a
-    positive weight, outliers included), :func:`all_residuals` for the masked ones."""
-    r = np.array(result.residuals, np.float64)
-    given = np.asarray(result.used, bool) | np.asarray(result.outliers, bool)
-    if r.shape != (len(given), 2) or len(given) != len(observations.encoder):
-        raise ValueError(f"the fit has residuals for {len(given)} observations, the run holds {len(observations.encoder)}")
-    if not given.all():
+class ObservationResiduals(NamedTuple):
+    """A fit's residual at every observation of its run (:func:`observation_residuals`).
+
+    Attributes:
+        residuals: ``(n, 2)`` observed minus model, radians, in the fit's residual form
+            (the mount's cross-axis and second-axis components): the fit's own where it
+            had them, the fitted model's for the observations it left out.
+        used: ``(n,)`` used by the fit and not flagged an outlier.
+        masked: ``(n,)`` left out of the fit (weight 0, TPOINT's MASK).
+        outlier: ``(n,)`` rejected by a robust fit, or flagged by the caller; not masked.
+    """
+
+    residuals: np.ndarray
+    used: np.ndarray
+    masked: np.ndarray
+    outlier: np.ndarray
+
+    @property
+    def distance(self) -> np.ndarray:
+        """``(n,)`` on-sky length of each residual, radians (TPOINT's R, :func:`on_sky`)."""
+        return on_sky(self.residuals)
+
+
+def observation_residuals(result, observations, *, masked=None, outliers=None, residuals=None) -> ObservationResiduals:
+    """A fit's residual at every observation of the run it was fitted to, flagged.
+
+    The one source of per-observation residuals for display: the listing
+    (:mod:`pointax.analysis.listing`), the plots and the HTML report
+    (:func:`pointax.plots.residual_data`) and TPOINT's graphics commands all take
+    theirs from here, so that they agree to the last bit.
+
+    Args:
+        result: a single fit's :class:`pointax.FitResult`.
+        observations: the run's :class:`pointax.Observations` (its weights are not
+            read: what the fit used is ``result.used``).
+        masked: ``(n,)`` bool, the observations the fit was told to leave out (default:
+            those the fit neither used nor rejected, i.e. its weight-0 rows).
+        outliers: more observations to flag as outliers (0-based indices or an ``(n,)``
+            bool mask), besides ``result.outliers``.
+        residuals: ``(n, 2)`` the fitted model's residuals at every observation, radians,
+            when the caller has them (a batched fit's, cut to the run): nothing is
+            evaluated then.
+
+    Returns:
+        :class:`ObservationResiduals`: the fit's own residuals for every observation
+        with a positive weight (outliers included), the fitted model's
+        (:func:`all_residuals`, same residual form) for the others.
+
+    Raises:
+        ValueError: a batched result, or a run of another length.
+    """
+    r = np.array(result.residuals if residuals is None else residuals, np.float64)
+    n = len(observations.encoder)
+    if r.shape != (n, 2):
+        raise ValueError(
+            f"a single fit's result with residuals of shape ({n}, 2), one per observation of the run, is needed; "
+            f"got residuals of shape {r.shape}"
+        )
+    fit_used = np.asarray(result.used, bool).reshape(n)
+    rejected = np.asarray(result.outliers, bool).reshape(n)
+    given = fit_used | rejected
+    if residuals is None and not given.all():
         r[~given] = all_residuals(result.model, observations)[~given]
-    return r
+    masked = ~given if masked is None else np.asarray(masked, bool)
+    if masked.shape != (n,):
+        raise ValueError(f"masked must have shape ({n},), got {masked.shape}")
+    outlier = (rejected | _flags(n, outliers)) & ~masked
+    return ObservationResiduals(r, fit_used & ~outlier & ~masked, masked, outlier)
+
+
+def _flags(n: int, outliers) -> np.ndarray:
+    """``outliers`` (None, indices or a boolean mask of length n) as a boolean mask."""
+    if outliers is None:
+        return np.zeros(n, bool)
+    arr = np.asarray(outliers)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise ValueError(f"outliers: a boolean mask must have shape ({n},), got {arr.shape}")
+        return arr
+    idx = arr.astype(int).ravel()
+    if idx.size and (idx.min() < -n or idx.max() >= n):
+        raise ValueError(f"outliers: indices must be within 0..{n - 1}")
+    mask = np.zeros(n, bool)
+    mask[idx] = True
+    return mask
 
 
 def on_sky(residuals) -> np.ndarray:
-    """``(n,)`` on-sky distance, arcsec, of ``(n, 2)`` residuals in radians."""
+    """``(n,)`` on-sky length ``sqrt(r1^2 + r2^2)`` of ``(n, 2)`` residuals, in their unit
+    (TPOINT's R of ``MASK R > x``)."""
     r = np.asarray(residuals, np.float64)
-    return np.hypot(r[:, 0], r[:, 1]) / ARCSEC
+    return np.hypot(r[:, 0], r[:, 1])
 
 
 def mask_above(model, observations, limit_arcsec: float, masked=None) -> np.ndarray:
@@ -139,5 +227,5 @@ def mask_above(model, observations, limit_arcsec: float, masked=None) -> np.ndar
     """
     if not limit_arcsec > 0:
         raise ValueError(f"MASK R > x needs a positive x in arcsec, got {limit_arcsec!r}")
-    above = on_sky(all_residuals(model, observations)) > limit_arcsec
+    above = on_sky(all_residuals(model, observations)) / ARCSEC > limit_arcsec
     return above if masked is None else above | np.asarray(masked, bool)

@@ -14,7 +14,18 @@ from ..core.model import Model
 from ..core.units import ARCSEC, UNITS
 from .options import SOLVER_NAMES
 
-__all__ = ["FitResult", "SUCCESSFUL", "solver_status", "CORRELATION_WARNING", "ABSURD_SKY_RMS_DEG", "too_few_residuals", "too_little_data"]
+__all__ = [
+    "FitResult",
+    "SUCCESSFUL",
+    "solver_status",
+    "STATUS_NAMES",
+    "CORRELATION_WARNING",
+    "ABSURD_SKY_RMS_DEG",
+    "too_few_residuals",
+    "too_little_data",
+    "residual_unit",
+    "finite_or_none",
+]
 
 CORRELATION_WARNING = 0.95
 """Reports warn about parameter pairs whose |correlation| exceeds this."""
@@ -34,15 +45,52 @@ SUCCESSFUL = 0
 ``RESULTS.successful``)."""
 
 
+STATUS_NAMES = (
+    "successful",
+    "max_steps_reached",
+    "singular",
+    "breakdown",
+    "stagnation",
+    "conlim",
+    "nonfinite_input",
+    "nonlinear_max_steps_reached",
+    "nonlinear_divergence",
+    "nonfinite",
+)
+"""The ``optx.RESULTS`` items :attr:`FitResult.status` codes: the code is the index here
+(another result: ``len(STATUS_NAMES)``)."""
+
+
 def solver_status(result) -> Int[Array, ""]:
     """optimistix's result (an ``optx.RESULTS`` item, or the name of one) as the integer
-    :attr:`FitResult.status` holds: an array, so that a stored fit's result rebuilds
-    without importing optimistix (:mod:`pointax.fitting.programs`)."""
+    :attr:`FitResult.status` holds (:data:`STATUS_NAMES`): an array, so that a stored
+    fit's result rebuilds without importing optimistix (:mod:`pointax.fitting.programs`).
+    Compared through the items' public ``==``, so it works under jit and vmap."""
     if isinstance(result, str):
-        import optimistix as optx
+        return jnp.asarray(STATUS_NAMES.index(result), jnp.int32)
+    import optimistix as optx
 
-        result = getattr(optx.RESULTS, result)
-    return jnp.asarray(result._value, jnp.int32)  # the item's index, which equinox keeps as `_value`
+    code = jnp.asarray(len(STATUS_NAMES), jnp.int32)
+    for index in reversed(range(len(STATUS_NAMES))):
+        code = jnp.where(result == getattr(optx.RESULTS, STATUS_NAMES[index]), index, code)
+    return code
+
+
+def residual_unit(units) -> str:
+    """The unit a fit's residuals, Sky RMS and Popn SD are shown in, from its parameters'
+    display ``units``: 'mrad' when one is in mrad (heliostat engineers think in mrad),
+    'deg' when every one is in degrees (sun trackers, turntables), else 'arcsec'
+    (telescopes)."""
+    units = tuple(units)
+    if "mrad" in units:
+        return "mrad"
+    return "deg" if units and all(u == "deg" for u in units) else "arcsec"
+
+
+def finite_or_none(x) -> float | None:
+    """``float(x)``, or None where it is not finite (JSON has no inf or NaN)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def too_few_residuals(n_used, n_free: int):
@@ -175,11 +223,15 @@ class FitResult(eqx.Module):
 
     @property
     def result(self):
-        """optimistix's result, as an ``optx.RESULTS`` item (imports optimistix)."""
+        """optimistix's result of a single fit, as an ``optx.RESULTS`` item (imports
+        optimistix); a batched result has one per site: :attr:`status`."""
         import optimistix as optx
 
-        item = type(optx.RESULTS.successful)  # equinox's EnumerationItem
-        return item(jnp.asarray(self.status), optx.RESULTS)
+        code = int(np.asarray(self.status).reshape(-1)[0]) if np.size(self.status) == 1 else None
+        if code is None:
+            raise ValueError("a batched result has one solver result per site: see .status")
+        name = STATUS_NAMES[code] if code < len(STATUS_NAMES) else "nonlinear_divergence"
+        return getattr(optx.RESULTS, name)
 
     def table(self) -> list[dict[str, Any]]:
         """One dict per fitted parameter: name, value, sigma, unit (display units)."""
@@ -196,11 +248,7 @@ class FitResult(eqx.Module):
 
     @property
     def _residual_unit(self) -> str:
-        # Heliostat engineers think in mrad, sun-tracker people in degrees (when every
-        # parameter is in degrees), telescope people in arcsec.
-        if "mrad" in self.units:
-            return "mrad"
-        return "deg" if self.units and all(u == "deg" for u in self.units) else "arcsec"
+        return residual_unit(self.units)
 
     def correlated_pairs(self, threshold: float = CORRELATION_WARNING) -> list[tuple[str, str, float]]:
         """Parameter pairs with |correlation| above ``threshold``."""
@@ -382,11 +430,7 @@ class FitResult(eqx.Module):
         Observations are named two ways: ``outliers`` holds 0-based indices (into
         ``residuals``, Python's), ``outlier_rows`` the same observations as 1-based row
         numbers in file order, as the report, the listing and TPOINT count them."""
-
-        def number(x):
-            x = float(x)
-            return x if math.isfinite(x) else None
-
+        number = finite_or_none
         corr = np.asarray(self.correlation)
         return {
             "n_obs": int(self.n_obs),

@@ -1,13 +1,15 @@
-"""TPOINT's statistics of a least-squares fit, in one place for every kind of fit.
+"""Every statistic pointax reports of a fit, in one module: TPOINT's for every kind of
+fit (solo, batched, shared-parameter), and the model comparison's.
 
-With ``r_i`` the residuals of the used observations times the square roots of their
-weights (normalised to mean 1), ``N`` the number used and ``M`` the number of fitted
-parameters (DESIGN.md, checked against real TPOINT output)::
+TPOINT's statistics (:func:`statistics`, the one routine every fit calls). With ``r_i``
+the residuals of the used observations times the square roots of their weights
+(normalised to mean 1, :func:`normalised_weights`), ``N`` the number used and ``M`` the
+number of fitted parameters (DESIGN.md)::
 
-    Sky RMS = sqrt( sum_i |r_i|^2 / N )
-    Popn SD = Sky RMS * sqrt( N / (N - M) )        (undefined, inf, when N <= M)
+    Sky RMS = sqrt( sum_i |r_i|^2 / N )                                  sky_rms()
+    Popn SD = Sky RMS * sqrt( N / (N - M) )     (inf when N <= M)        popn_sd()
     sigma_j = Sky RMS * sqrt( [(J^T J)^-1]_jj )    J: d r / d parameters
-    LOO RMS = sqrt( sum_i |e_i|^2 / N ),  e_i = (I - H_ii)^-1 r_i      (leave-one-out)
+    LOO RMS = sqrt( sum_i |e_i|^2 / N ),  e_i = (I - H_ii)^-1 r_i        leave_one_out()
 
 ``H = J (J^T J)^-1 J^T`` is the hat matrix of the weighted linearised problem at the
 solution and ``H_ii`` its 2x2 block of star ``i`` (both its residual components): ``e_i``
@@ -22,25 +24,47 @@ rejected) is already left out: its leave-one-out residual is its residual.
 SVD (:func:`svd_unit_covariance`, the solo fit, which also finds parameters the data
 cannot tell apart) or from a Cholesky factor (the batched fast path, the
 shared-parameter fit).
+
+The model comparison's figures (:func:`pointax.compare`, :func:`pointax.build_model`),
+which are not TPOINT's and differ from them on purpose:
+
+* :func:`axis_rms`: per-axis and total RMS of the level-mount paper (Li, Li & Liu,
+  Laser & Infrared 47(5) 2017, eqs 21-23), with ``n - 1`` in the denominator (not
+  TPOINT's ``N``, nor ``N - M``), per axis;
+* :func:`information_criteria`: AIC and BIC of a least-squares fit;
+* :func:`significance`: ``value / sigma`` of each fitted parameter.
+
+A fit's residual at every observation (masked and rejected ones included), in the fit's
+own residual form, comes from :func:`pointax.fitting.masking.observation_residuals`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float, Int
+
+from ..core.units import ARCSEC
 
 __all__ = [
     "Statistics",
     "statistics",
+    "sky_rms",
+    "popn_sd",
     "svd_unit_covariance",
     "leave_one_out",
     "robust_sigma",
     "normalised_weights",
     "DEGENERATE_RCOND",
     "RAYLEIGH_MEDIAN",
+    "AxisRMS",
+    "axis_rms",
+    "information_criteria",
+    "significance",
 ]
 
 DEGENERATE_RCOND = 1e-10
@@ -68,6 +92,27 @@ def normalised_weights(weight: Float[Array, " n"], used: Bool[Array, " n"]) -> F
     """Weights of the ``used`` rows scaled to mean 1 over them; 0 elsewhere."""
     weight = jnp.where(used, weight, 0.0)
     return weight * jnp.sum(used) / jnp.sum(weight)
+
+
+def sky_rms(weighted: Float[Array, "n 2"], used: Bool[Array, " n"]) -> Float[Array, ""]:
+    """TPOINT's Sky RMS, ``sqrt(sum_i |r_i|^2 / N)`` over the ``N`` used observations.
+
+    Args:
+        weighted: ``(n, 2)`` residuals times the square roots of the normalised weights
+            (:func:`normalised_weights`; plain residuals when every weight is equal);
+            the rows not ``used`` are left out.
+        used: ``(n,)`` the observations the fit used.
+    """
+    weighted = jnp.where(used[..., None], weighted, 0.0)
+    return jnp.sqrt(jnp.sum(weighted**2, axis=(-2, -1)) / jnp.sum(used, axis=-1))
+
+
+def popn_sd(sky_rms: Float[Array, ""], n_obs: Int[Array, ""] | int, n_free: Int[Array, ""] | int) -> Float[Array, ""]:
+    """TPOINT's Popn SD, ``Sky RMS * sqrt(N / (N - M))`` for ``N`` observations used and
+    ``M`` fitted parameters: the Sky RMS corrected for the degrees of freedom the fit
+    took; inf when ``N <= M`` (TPOINT prints it as undefined)."""
+    n_obs = jnp.asarray(n_obs)
+    return jnp.where(n_obs > n_free, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - n_free, 1)), jnp.inf)
 
 
 def statistics(
@@ -100,9 +145,8 @@ def statistics(
             leave-one-out residuals of the stars not used.
     """
     n_obs = jnp.sum(used)
-    sky_rms = jnp.sqrt(jnp.sum(weighted**2) / n_obs)
-    popn_sd = jnp.where(n_obs > n_free, sky_rms * jnp.sqrt(n_obs / jnp.maximum(n_obs - n_free, 1)), jnp.inf)
-    cov = unit_covariance * (sky_rms if scale is None else scale) ** 2
+    rms = sky_rms(weighted, used)
+    cov = unit_covariance * (rms if scale is None else scale) ** 2
     if degenerate is None:
         degenerate = jnp.zeros(cov.shape[:1], bool)
     sigmas = jnp.where(degenerate, jnp.inf, jnp.sqrt(jnp.diag(cov)))
@@ -114,7 +158,7 @@ def statistics(
         loo_rms = jnp.asarray(jnp.nan, weighted.dtype)
     else:
         loo, loo_rms = leave_one_out(weighted, used, jac, unit_covariance, residuals)
-    return Statistics(n_obs, sky_rms, popn_sd, cov, sigmas, corr, loo, loo_rms)
+    return Statistics(n_obs, rms, popn_sd(rms, n_obs, n_free), cov, sigmas, corr, loo, loo_rms)
 
 
 def leave_one_out(
@@ -209,3 +253,82 @@ def robust_sigma(r: Float[Array, "n 2"], used: Bool[Array, " n"]) -> Float[Array
     z = jnp.sum(jnp.where(used[:, None], r, 0.0) ** 2, axis=-1)
     norm = jnp.where(used, jnp.sqrt(jnp.where(used, z, 1.0)), jnp.nan)
     return jnp.nanmedian(norm) / RAYLEIGH_MEDIAN
+
+
+# ----------------------------------------------------------- the model comparison's figures
+
+
+@dataclasses.dataclass(frozen=True)
+class AxisRMS:
+    """Per-axis and total RMS of one set of residuals (the level-mount paper's eqs
+    21-23, :func:`axis_rms`), radians.
+
+    Attributes:
+        axis1, axis2: ``sqrt(sum d^2 / (n - 1))`` per axis.
+        total: ``sqrt(axis1^2 + axis2^2)``.
+        n: number of residuals (stars).
+    """
+
+    axis1: float
+    axis2: float
+    total: float
+    n: int
+
+    def arcsec(self) -> dict[str, Any]:
+        """The three figures in arcsec, and ``n``."""
+        return {"axis1": self.axis1 / ARCSEC, "axis2": self.axis2 / ARCSEC, "total": self.total / ARCSEC, "n": self.n}
+
+
+def axis_rms(residuals: Float[np.ndarray, "n 2"], cos_axis2: Float[np.ndarray, " n"] | None = None) -> AxisRMS:
+    """The level-mount paper's per-axis and total RMS (Li, Li & Liu 2017, eqs 21-23)
+    of ``(n, 2)`` residuals (radians): not TPOINT's Sky RMS (:func:`sky_rms`), which
+    divides the sum over both axes by ``N``; this divides each axis's sum by ``n - 1``::
+
+        sigma_1 = sqrt( sum_i d1_i^2 / (n - 1) ),  sigma_2 = sqrt( sum_i d2_i^2 / (n - 1) )
+        sigma   = sqrt( sigma_1^2 + sigma_2^2 )
+
+    Args:
+        residuals: ``(n, 2)`` observed minus model, (cross-axis, second axis) radians,
+            as :func:`pointax.residuals` gives them (unweighted; every row counts).
+        cos_axis2: ``(n,)`` cosine of each star's second-axis angle. Given, the first
+            column is divided by it (the residual of the first-axis angle, the paper's
+            ``DL``, to first order); ``None`` keeps the cross-axis offset on the sky.
+
+    Returns:
+        :class:`AxisRMS` (NaN for fewer than 2 rows).
+    """
+    r = np.asarray(residuals, np.float64).reshape(-1, 2)
+    d1 = r[:, 0] if cos_axis2 is None else r[:, 0] / np.asarray(cos_axis2, np.float64)
+    n = r.shape[0]
+    if n < 2:
+        return AxisRMS(math.nan, math.nan, math.nan, n)
+    s1 = math.sqrt(float(np.sum(d1**2)) / (n - 1))
+    s2 = math.sqrt(float(np.sum(r[:, 1] ** 2)) / (n - 1))
+    return AxisRMS(s1, s2, math.hypot(s1, s2), n)
+
+
+def information_criteria(residuals: Float[np.ndarray, "n 2"], n_params: int) -> tuple[float, float, float]:
+    """``(ln L, AIC, BIC)`` of a least-squares fit from its ``(n, 2)`` residuals (radians)
+    and its number of fitted parameters ``m``. The likelihood: the ``2n`` residual
+    components, in arcsec, are independent Gaussians with one common variance, set to
+    its maximum-likelihood value ``s^2 = RSS / (2n)`` (least squares is then the
+    maximum-likelihood fit)::
+
+        ln L = -n ( ln(2 pi s^2) + 1 ),   k = m + 1  (the variance counts)
+        AIC = 2k - 2 ln L,                BIC = k ln(2n) - 2 ln L
+
+    Only differences between models fitted to the same observations mean anything."""
+    r = np.asarray(residuals, np.float64).reshape(-1) / ARCSEC
+    n_components = r.size
+    variance = float(np.sum(r**2)) / n_components
+    log_l = -0.5 * n_components * (math.log(2 * math.pi * variance) + 1.0)
+    k = n_params + 1
+    return log_l, 2 * k - 2 * log_l, k * math.log(n_components) - 2 * log_l
+
+
+def significance(values: Float[np.ndarray, " m"], sigmas: Float[np.ndarray, " m"]) -> np.ndarray:
+    """``value / sigma`` of each fitted parameter (TPOINT's sigma, :func:`statistics`);
+    0 for a parameter the data cannot determine (sigma inf) or whose sigma is 0."""
+    values, sigmas = np.asarray(values, np.float64), np.asarray(sigmas, np.float64)
+    good = np.isfinite(sigmas) & (sigmas > 0)
+    return np.where(good, values / np.where(good, sigmas, 1.0), 0.0)

@@ -1,9 +1,11 @@
 """What the plots draw, as plain numpy arrays: one :class:`ResidualData` per fit.
 
 Everything here is numpy (no matplotlib), so it can be checked on its own and used by
-the report. Residuals are observed minus model, exactly ``result.residuals``
-(radians), shown in the fit's residual unit (arcsec for telescopes, mrad for
-heliostats, degrees for turntables whose parameters are all in degrees).
+the report. Residuals are observed minus model in the fit's own residual form, those
+of :func:`pointax.fitting.masking.observation_residuals` (the listing's too), shown in
+the fit's residual unit (:func:`pointax.fitting.result.residual_unit`: arcsec for
+telescopes, mrad for heliostats, degrees for turntables whose parameters are all in
+degrees).
 """
 
 from __future__ import annotations
@@ -12,20 +14,20 @@ import dataclasses
 
 import numpy as np
 
+from ..core.units import UNITS
+
 __all__ = ["ResidualData", "residual_data", "residual_unit", "UNIT_SCALE", "component_names"]
 
-UNIT_SCALE = {"arcsec": np.pi / (180.0 * 3600.0), "mrad": 1e-3, "deg": np.pi / 180.0}
+UNIT_SCALE = {unit: UNITS[unit] for unit in ("arcsec", "mrad", "deg")}
 """Radians per residual display unit."""
 
 
 def residual_unit(result) -> str:
-    """The unit the fit's report prints residuals in: 'mrad' when a parameter is in
-    mrad (heliostats), 'deg' when every parameter is in degrees (turntables), else
-    'arcsec'."""
-    units = tuple(getattr(result, "units", ()))
-    if "mrad" in units:
-        return "mrad"
-    return "deg" if units and all(u == "deg" for u in units) else "arcsec"
+    """The unit the fit's report prints residuals in
+    (:func:`pointax.fitting.result.residual_unit` of its parameters' units)."""
+    from ..fitting import residual_unit as of_units
+
+    return of_units(getattr(result, "units", ()))
 
 
 # Mount class name -> (residual component names, axis angle names, short residual symbols).
@@ -68,10 +70,11 @@ class ResidualData:
     """One fit's residuals and positions, ready to draw (numpy; ``n`` observations).
 
     Attributes:
-        residuals: ``(n, 2)`` observed minus model in the mount's residual basis
-            (``result.residuals``), in ``unit``; for masked rows, where a fit leaves
-            0, the fitted model's residuals there (:func:`_fill_masked`).
+        residuals: ``(n, 2)`` observed minus model in the mount's residual basis and
+            the fit's residual form, in ``unit``, at every row, masked ones included
+            (:func:`pointax.fitting.masking.observation_residuals`).
         unit: 'arcsec', 'mrad' or 'deg'.
+        sky_rms: the fit's Sky RMS (``result.sky_rms``), in ``unit``.
         names: the two residual components' names (alt-az: 'cross-elevation',
             'elevation'; equatorial: 'cross-declination', 'declination').
         symbols: short forms of ``names`` ('dA cos E', 'dE').
@@ -97,6 +100,7 @@ class ResidualData:
 
     residuals: np.ndarray
     unit: str
+    sky_rms: float
     names: tuple[str, str]
     symbols: tuple[str, str]
     axis_names: tuple[str, str]
@@ -116,7 +120,9 @@ class ResidualData:
     @property
     def distance(self) -> np.ndarray:
         """``(n,)`` the on-sky length of each residual (TPOINT's R of MASK R > x), ``unit``."""
-        return np.hypot(self.residuals[:, 0], self.residuals[:, 1])
+        from ..fitting import on_sky
+
+        return on_sky(self.residuals)
 
     def groups(self) -> list[tuple[str, np.ndarray]]:
         """``[('used', mask), ('outlier', mask), ('masked', mask)]``: the three kinds
@@ -134,23 +140,6 @@ def _observations_of(observations):
     raise TypeError(f"expected pointax.Observations or a run with .observations, got {type(observations).__name__}")
 
 
-def _flags(n: int, outliers) -> np.ndarray:
-    """``outliers`` (None, indices or a boolean mask of length n) as a boolean mask."""
-    if outliers is None:
-        return np.zeros(n, bool)
-    arr = np.asarray(outliers)
-    if arr.dtype == bool:
-        if arr.shape != (n,):
-            raise ValueError(f"outliers: a boolean mask must have shape ({n},), got {arr.shape}")
-        return arr
-    idx = arr.astype(int).ravel()
-    if idx.size and (idx.min() < -n or idx.max() >= n):
-        raise ValueError(f"outliers: indices must be within 0..{n - 1}")
-    mask = np.zeros(n, bool)
-    mask[idx] = True
-    return mask
-
-
 def _axis_angles(mount, encoder: np.ndarray) -> np.ndarray:
     """Nominal axis angles (radians) of ``(n, 2)`` raw readings: the readings
     themselves for mounts whose encoders read angles, else ``mount.axis_angles``
@@ -166,66 +155,31 @@ def _axis_angles(mount, encoder: np.ndarray) -> np.ndarray:
         return np.asarray(jnp.vectorize(mount.axis_angles, signature="(2)->(2)")(jnp.asarray(encoder)), float)
 
 
-def _fill_masked(model, res: np.ndarray, encoder, target, masked: np.ndarray) -> np.ndarray:
-    """``res`` with the masked rows (which a fit leaves at 0) replaced by the fitted
-    model's residuals there, where their data are finite: the observed direction's
-    tangent-plane offset from where the model points (``model(encoder)``), in the
-    mount frame, as :meth:`pointax.Mount.axis_residuals` (for a model fitted with
-    ``residual_form='tpoint'`` this is the sky form, which differs at second order)."""
-    rows = masked & np.all(np.isfinite(encoder), axis=1) & np.all(np.isfinite(target), axis=1)
-    if not rows.any():
-        return res
-    import jax
-
-    frame = np.asarray(model.mount.frame, float)
-    with jax.enable_x64(True):
-        predicted = np.asarray(model(encoder[rows]), float) @ frame
-    observed = target[rows] @ frame
-    e_az, e_el = _tangent_basis(observed)
-    depth = np.sum(predicted * observed, axis=1)
-    out = res.copy()
-    out[rows, 0] = -np.sum(predicted * e_az, axis=1) / depth
-    out[rows, 1] = -np.sum(predicted * e_el, axis=1) / depth
-    return out
-
-
 def residual_data(result, observations, outliers=None) -> ResidualData:
     """The arrays the plots draw for one fit.
 
     Args:
-        result: a :class:`pointax.FitResult` of a single fit: ``residuals`` ``(n, 2)``
-            radians, for every row (masked ones included).
-        observations: the :class:`pointax.Observations` fitted (weight 0 = masked), or
-            a run with ``.observations``.
+        result: a :class:`pointax.FitResult` of a single fit.
+        observations: the :class:`pointax.Observations` fitted, or a run with
+            ``.observations``; the rows the fit gave weight 0 are drawn as masked.
         outliers: more observations to flag as outliers (0-based indices or an
             ``(n,)`` boolean mask), besides ``result.outliers``.
 
     Raises:
         ValueError: shapes of result and observations differ, or a batched result.
     """
+    from ..fitting import observation_residuals
+
     obs = _observations_of(observations)
-    res = np.asarray(result.residuals, float)
+    rows = observation_residuals(result, obs, outliers=outliers)
+    res, masked, outlier, used = rows.residuals, rows.masked, rows.outlier, rows.used
     encoder = np.asarray(obs.encoder, float)
     target = np.asarray(obs.target, float)
-    weight = np.asarray(obs.weight, float)
-    if res.ndim != 2 or res.shape[1] != 2:
-        raise ValueError(f"plots take a single fit's result (residuals of shape (n, 2)); got shape {res.shape}")
-    n = res.shape[0]
-    if encoder.shape[0] != n:
-        raise ValueError(f"the result has {n} residuals but the observations have {encoder.shape[0]} rows")
     unit = residual_unit(result)
     scale = UNIT_SCALE[unit]
     mount = result.model.mount
     names, axis_names, symbols = component_names(mount)
     frame = np.asarray(mount.frame, float)
-
-    masked = weight <= 0
-    res = _fill_masked(result.model, res, encoder, target, masked)
-    flagged = np.asarray(getattr(result, "outliers", np.zeros(n, bool)), bool).reshape(-1)
-    if flagged.shape != (n,):
-        flagged = np.zeros(n, bool)
-    outlier = (flagged | _flags(n, outliers)) & ~masked
-    used = ~masked & ~outlier
 
     # The residual vector on the sky: r1 e_az + r2 e_el in the mount frame at the
     # observed direction (the basis of Mount.axis_residuals), taken to ENU, then
@@ -252,6 +206,7 @@ def residual_data(result, observations, outliers=None) -> ResidualData:
     return ResidualData(
         residuals=res / scale,
         unit=unit,
+        sky_rms=float(np.asarray(result.sky_rms)) / scale,
         names=names,
         symbols=symbols,
         axis_names=axis_names,

@@ -106,7 +106,7 @@ def _statistics(result, data) -> str:
         ("observations used", str(int(np.asarray(result.n_obs)))),
         ("masked (weight 0)", str(int(data.masked.sum()))),
         ("outliers (robust fit)", str(int(data.outlier.sum()))),
-        (f"Sky RMS ({data.unit})", _number(float(np.asarray(result.sky_rms)) / scale, ".4f")),
+        (f"Sky RMS ({data.unit})", _number(data.sky_rms, ".4f")),
         (f"Popn SD ({data.unit})", _number(float(np.asarray(result.popn_sd)) / scale, ".4f")),
         (
             f"LOO RMS ({data.unit}): leave-one-out, from the hat matrix of the linearised fit (no refits)",

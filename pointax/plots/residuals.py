@@ -91,12 +91,12 @@ def residual_axes(fig, data: ResidualData, grid, rows: tuple[int, int], cols: tu
 
 def draw_scatter(ax, data: ResidualData, *, legend: bool = True) -> list:
     """The second residual component against the first (equal scales), with a circle
-    at the Sky RMS of the used observations."""
+    at the fit's Sky RMS."""
     lines = draw_points(ax, data, data.residuals[:, 0], data.residuals[:, 1], legend=legend)
     ax.axvline(0.0, color="0.3", linewidth=0.6)
     ax.set_aspect("equal", adjustable="datalim")
-    if data.used.any():
-        rms = float(np.sqrt(np.mean(np.sum(data.residuals[data.used] ** 2, axis=1))))
+    if data.used.any() and np.isfinite(data.sky_rms):
+        rms = data.sky_rms
         t = np.linspace(0.0, 2 * np.pi, 181)
         ax.plot(rms * np.cos(t), rms * np.sin(t), color="0.4", linestyle="--", linewidth=0.8, gid="rms-circle",
                 label=f"Sky RMS {rms:.3g} {data.unit}")
