@@ -39,7 +39,7 @@ _EXPORTS = {
     "FitOptions": "fitting",
     "FitResult": "fitting",
     "fit": "fitting",
-    "residuals": "fitting",
+    "residuals": "fitting.residuals",
     "HeliostatCalibration": "analysis.heliostat",
     "calibrate_heliostat": "analysis.heliostat",
     "heliostat_model": "analysis.heliostat",

@@ -28,3 +28,9 @@ if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 &
     (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium) \
         >/dev/null 2>&1 || echo "setup.sh: could not install chromium; the report's browser check will skip" >&2
 fi
+# CI's second environment (.ci/run sets POINTAX_CHECK_LOWEST=1): pointax at the lowest
+# versions pyproject.toml allows, in a throw-away venv, with a quick subset of the tests
+# (scripts/check_lowest_versions.sh; about 5 minutes). Users' set-ups skip it.
+if [ "${POINTAX_CHECK_LOWEST:-0}" = 1 ]; then
+    PYTHON="$PYTHON" bash scripts/check_lowest_versions.sh
+fi

@@ -5,6 +5,8 @@ Reference: TPOINT's own model file for the bundled run.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import subprocess
@@ -28,11 +30,12 @@ def no_compilation_cache(monkeypatch):
 
 @pytest.fixture(scope="module")
 def json_fit():
-    proc = subprocess.run(
-        [sys.executable, "-m", "pointax", "fit", str(MMT_DAT), "--azimuth", "S-E", "--json"],
-        capture_output=True, text=True, check=True, env={**os.environ, "POINTAX_JAX_CACHE": ""},
-    )
-    return json.loads(proc.stdout)
+    # In this process (the entry point itself, `python -m pointax`, runs in
+    # test_compilation_cache_is_used_when_set): a subprocess would import and compile again.
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["fit", str(MMT_DAT), "--azimuth", "S-E", "--json"]) == 0
+    return json.loads(out.getvalue())
 
 
 def test_compilation_cache_is_used_when_set(tmp_path):

@@ -81,19 +81,37 @@ def test_every_public_name_resolves_to_its_module_attribute():
 
 
 def test_functions_named_like_their_modules_stay_functions():
-    """``pointax.terms.tpoint`` is the function even after ``pointax/terms/tpoint.py`` is
-    imported by name (as an eager ``from .tpoint import tpoint`` would leave it), and so on."""
+    """``pointax.terms.tpoint`` is the function even after the module defining it
+    (``pointax/terms/tpoint_terms.py``) is imported by name, and so on."""
     code = (
-        "import pointax, pointax.fitting, pointax.core.inverse, pointax.core.simulate, pointax.terms.tpoint\n"
-        "import pointax.sunsensor.centroid\n"
+        "import pointax, pointax.fitting, pointax.core.inverse, pointax.core.simulate, pointax.terms.tpoint_terms\n"
+        "import pointax.terms.heliostat_terms, pointax.sunsensor.centroids, pointax.fitting.residuals\n"
         "from pointax.sunsensor import centroid\n"
         "assert callable(pointax.fit) and pointax.fit.__module__.startswith('pointax.'), pointax.fit\n"
-        "assert all(not isinstance(f, type(pointax)) for f in (pointax.fit, pointax.command, pointax.compare, pointax.simulate, pointax.terms.tpoint, centroid))\n"
+        "functions = (pointax.fit, pointax.command, pointax.compare, pointax.simulate, pointax.residuals,\n"
+        "             pointax.terms.tpoint, pointax.terms.heliostat, centroid)\n"
+        "assert all(not isinstance(f, type(pointax)) for f in functions), functions\n"
         "from pointax import fit\n"
         "assert fit is pointax.fit"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_a_lazy_package_refuses_a_name_of_one_of_its_submodules(tmp_path, monkeypatch):
+    """Importing a submodule binds it to its package's attribute of the same name, which
+    would replace a function of that name exported on first use: lazy_namespace refuses
+    the pair when the package is imported (every package of pointax imports, above)."""
+    package = tmp_path / "lazyprobe"
+    package.mkdir()
+    (package / "tool.py").write_text("def tool():\n    return 1\n")
+    (package / "__init__.py").write_text(
+        "from pointax.core.lazy import lazy_namespace\n__getattr__, __dir__ = lazy_namespace(__name__, {'tool': 'tool'})\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(ValueError, match="exported tool would be replaced by the submodule"):
+        import lazyprobe  # noqa: F401
+    monkeypatch.delitem(sys.modules, "lazyprobe", raising=False)
 
 
 def test_unknown_name_is_an_attribute_error():
@@ -209,8 +227,8 @@ def test_the_light_copies_of_library_names_equal_the_library():
     from pointax.core.mounts import AZIMUTH_CONVENTIONS
     from pointax.io.tpoint import MOUNTS as TPOINT_MOUNTS
     from pointax.procedures.session import MOUNTS as PROCEDURE_MOUNTS
-    from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
-    from pointax.terms.heliostat import HELIOSTAT_DEFAULT
+    from pointax.sunsensor.centroids import METHODS as CENTROID_METHODS
+    from pointax.terms.heliostat_terms import HELIOSTAT_DEFAULT
     from pointax.terms.sun_vector import TURNTABLE_MODELS
     from pointax.terms.model_factories import XY_FAMILIES
     from pointax.terms.xy import FAMILIES
@@ -218,6 +236,7 @@ def test_the_light_copies_of_library_names_equal_the_library():
     assert choices.SOLVERS == tuple(SOLVERS)
     assert choices.LOSSES == tuple(LOSSES)
     assert choices.TERM_FORMS == tuple(terms.FORMS)
+    assert choices.DEFAULT_TERM_FORM == terms.DEFAULT_FORM
     assert choices.RESIDUAL_FORMS == tuple(RESIDUAL_FORMS)
     assert choices.AZIMUTH_CONVENTIONS == tuple(AZIMUTH_CONVENTIONS)
     assert choices.BASIC_ALTAZ == tuple(terms.BASIC_ALTAZ)

@@ -9,7 +9,7 @@ import pytest
 torch = pytest.importorskip("torch")
 pytest.importorskip("kornia")
 
-from pointax.sunsensor.centroid import STATUSES, centroid  # noqa: E402
+from pointax.sunsensor.centroids import STATUSES, centroid  # noqa: E402
 from pointax.sunsensor.frames import PAPER_ASPECT, PAPER_SUN_RADIUS_PX, synthetic_frames  # noqa: E402
 
 R = PAPER_SUN_RADIUS_PX

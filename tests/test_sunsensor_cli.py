@@ -122,7 +122,7 @@ def test_parser_is_light_and_the_stand_alone_entry_point_runs(files, capsys):
     import subprocess
     import sys
 
-    from pointax.sunsensor.centroid import METHODS as CENTROID_METHODS
+    from pointax.sunsensor.centroids import METHODS as CENTROID_METHODS
     from pointax.cli.centroid import METHODS, main
 
     assert METHODS == CENTROID_METHODS

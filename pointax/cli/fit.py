@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
 from collections.abc import Callable
 from typing import Any
 
@@ -80,10 +79,10 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument(
         "--form",
         choices=sorted(choices.TERM_FORMS),
-        default="linear",
-        help="how the TPOINT terms are applied: linear (default: TPOINT's formulas as first-order offsets at the sky "
-        "position) or rigorous (exact rotations and encoder corrections, as TPOINT applies its model: nearer TPOINT's "
-        "fitted values where the corrections are large)",
+        default=choices.DEFAULT_TERM_FORM,
+        help="how the TPOINT terms are applied: rigorous (default: exact rotations and encoder corrections, the model "
+        "applied as TPOINT applies it) or linear (TPOINT's formulas as first-order offsets at the sky position, off "
+        "TPOINT's fitted values where the corrections are large)",
     )
     p.add_argument(
         "--fix",
@@ -353,11 +352,6 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     if fmt == "paint":
         return _fit_paint(args, loss)
-    from ..fitting import programs
-
-    # The last fit of this file's executable loads while the rest is imported and read.
-    programs.prefetch(f"fit {os.path.abspath(args.data)}")
-
     import numpy as np
 
     from .. import terms as term_library
@@ -568,7 +562,7 @@ def _plot(path: str, outcome: FitOutcome) -> None:
 def _check_paint_options(args) -> None:
     for option, value, default in (
         ("--write-model", getattr(args, "write_model", None), None),
-        ("--form", args.form, "linear"),
+        ("--form", args.form, choices.DEFAULT_TERM_FORM),
         ("--azimuth", args.azimuth, "N-E"),
         ("--residuals", args.residuals, "sky"),
         ("--mask", args.mask, ""),

@@ -3,38 +3,26 @@
 ``import pointax`` then costs only what it imports itself, and astropy, torch, dask and
 the solvers load when a function that needs them is first looked up.
 
-    __getattr__, __dir__ = lazy_namespace(__name__, {"AltAz": "mount_models", ...}, ("io", "sky"))
+    __getattr__, __dir__ = lazy_namespace(__name__, {"AltAz": "terms.model_factories", ...}, ("io", "sky"))
 
-A function may share its name with the module defining it (``pointax.command`` the
-function, ``pointax/core/inverse.py`` the module). Eager imports bound the function last, and so does this:
-when Python's import system stores the submodule on the package as an attribute of that
-name, the package keeps the function instead.
+No exported name is also the name of a submodule of the same package: Python's import
+system binds a submodule to its package's attribute of that name when the submodule is
+imported, which would replace an exported function by the module defining it
+(:func:`lazy_namespace` refuses such a pair).
 """
 
 from __future__ import annotations
 
 import importlib
+import os
 import sys
-import types
 from collections.abc import Callable, Iterable, Mapping
 
 __all__ = ["lazy_namespace"]
 
 
-class LazyPackage(types.ModuleType):
-    """A package whose exported functions are not replaced by same-named submodules."""
-
-    def __setattr__(self, name: str, value) -> None:
-        shadowed = self.__dict__.get("_lazy_shadowed", ())
-        if name in shadowed and isinstance(value, types.ModuleType) and value.__name__ == f"{self.__name__}.{name}":
-            # Python's import system binding pointax/core/inverse.py to pointax.command: keep the
-            # function (looked up by __getattr__ on first use).
-            return
-        super().__setattr__(name, value)
-
-
 def lazy_namespace(
-    package: str, exports: Mapping[str, str], submodules: Iterable[str] = (), shadowed: Iterable[str] = ()
+    package: str, exports: Mapping[str, str], submodules: Iterable[str] | Mapping[str, str] = ()
 ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for the package ``package``.
 
@@ -45,14 +33,20 @@ def lazy_namespace(
         submodules: submodules exported as themselves: names, or a mapping of the
             exported name -> the submodule's path relative to the package (a room's
             module exported at the top, ``"rotations": "core.rotations"``).
-        shadowed: more exported names that a submodule of the same name must not
-            replace (those exported from a module of their own name always are).
+
+    Raises:
+        ValueError: an exported name is also the name of one of the package's
+            submodules (the import system would replace it by the module).
     """
     module = sys.modules[package]
     exports = dict(exports)
     submodules = dict(submodules) if isinstance(submodules, Mapping) else {name: name for name in submodules}
-    module.__dict__["_lazy_shadowed"] = frozenset(name for name, where in exports.items() if where == name) | set(shadowed)
-    module.__class__ = LazyPackage
+    own = _submodule_names(module)
+    clashes = {name for name in exports if name in own}
+    clashes |= {name for name, path in submodules.items() if name in own and path != name}
+    if clashes:
+        names = ", ".join(sorted(clashes))
+        raise ValueError(f"{package}: the exported {names} would be replaced by the submodule of that name")
 
     def __getattr__(name: str):
         if name in exports:
@@ -68,3 +62,16 @@ def lazy_namespace(
         return sorted(set(module.__dict__) | set(exports) | set(submodules))
 
     return __getattr__, __dir__
+
+
+def _submodule_names(module) -> set[str]:
+    """The names of the package's own submodules (its ``.py`` files and folders)."""
+    names = set()
+    for folder in getattr(module, "__path__", ()):
+        with os.scandir(folder) as entries:
+            for entry in entries:
+                if entry.name.endswith(".py"):
+                    names.add(entry.name[:-3])
+                elif entry.is_dir() and entry.name.isidentifier():
+                    names.add(entry.name)
+    return names

@@ -2,7 +2,10 @@
 
 * :mod:`~pointax.fitting.options`: :class:`FitOptions`, the fit's options as one object.
 * :mod:`~pointax.fitting.problem`: the problem definition every fit evaluates: what a
-  site's observations fix, prepared once, and one residual function (both forms).
+  site's observations fix (one construction, for a site or a chunk of sites), prepared
+  once, and one residual family (both forms), evaluated by
+  :mod:`~pointax.fitting.fast_evaluation`; its Jacobian for the batched fits:
+  :mod:`~pointax.fitting.fast_jacobian`.
 * :mod:`~pointax.fitting.residuals`: the plain residuals of the forward model (the
   oracle the problem definition is tested against).
 * :mod:`~pointax.fitting.core`: the fit, pure JAX, over a mask of free parameters.
@@ -11,11 +14,11 @@
   USE / LOSE / FIX / MASK never recompile.
 * :mod:`~pointax.fitting.solo`: :func:`fit`, one run.
 * :mod:`~pointax.fitting.result`: :class:`FitResult`.
-* :mod:`~pointax.fitting.programs`: traced and compiled fits kept on disk.
+* :mod:`~pointax.fitting.programs`: traced fits kept on disk (:mod:`jax.export`).
 * :mod:`~pointax.fitting.xla_options`: compiler options for the larger programs.
 
-Batched fits (:mod:`pointax.fitting.batch`) run a fixed-step fast pass on the same problem
-definition and send the sites it does not settle to :func:`fit_model`; shared-parameter
+Batched fits (:mod:`pointax.fitting.batch`) run a fixed-step fast pass
+(:mod:`pointax.fitting.batch_fast_pass`) on the same problem definition and send the sites it does not settle to :func:`fit_model`; shared-parameter
 fits (:mod:`pointax.fitting.shared`) solve the joint problem on it; all of them take their
 statistics from :mod:`~pointax.fitting.statistics`.
 """
@@ -27,6 +30,10 @@ from ..core.lazy import lazy_namespace
 _EXPORTS = {
     "LOSSES": "core",
     "SOLVERS": "core",
+    "site_statuses": "batch",
+    "observation_residuals": "masking",
+    "on_sky": "masking",
+    "residual_unit": "result",
     "fit_core": "core",
     "free_mask": "core",
     "least_squares": "core",
@@ -39,7 +46,6 @@ _EXPORTS = {
     "define_problem": "problem",
     "as_observations": "residuals",
     "check_convention": "residuals",
-    "residuals": "residuals",
     "CORRELATION_WARNING": "result",
     "FitResult": "result",
     "fit": "solo",
@@ -51,13 +57,12 @@ _EXPORTS = {
     "Statistics": "statistics",
     "normalised_weights": "statistics",
     "robust_sigma": "statistics",
-    "statistics": "statistics",
     "svd_unit_covariance": "statistics",
     "leave_one_out": "statistics",
     "embed": "structure",
 }
 
-__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, ("structure",))
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, ("residuals", "statistics", "structure"))
 
 __all__ = [
     "CORRELATION_WARNING",
@@ -84,10 +89,12 @@ __all__ = [
     "normalised_weights",
     "options_from",
     "prepare",
-    "residuals",
     "restrict",
     "result_from_covariance",
+    "site_statuses",
+    "observation_residuals",
+    "on_sky",
+    "residual_unit",
     "robust_sigma",
-    "statistics",
     "svd_unit_covariance",
 ]

@@ -1,14 +1,12 @@
 """Compiled programs kept on disk between runs (JAX's persistent compilation cache).
 
-A batched refit compiles its fixed-step fit once per model structure and chunk shape:
-about 1 s of XLA's time for the turntable model on a 2-core machine at a quiet moment,
-on top of ~0.5 s of tracing (``benchmarks/batch_fit_notes.md``). With the cache on, the
-next process that fits the same structure loads the compiled program instead (4,096
-turntable sites in a fresh process, ``benchmarks/batch_fit.py``: 2.2-2.4 s of
-compilation cold, 1.4 s with the cache warm). The ``pointax``
-command turns it on for every subcommand (``$POINTAX_JAX_CACHE``); call
-:func:`enable_compilation_cache` in your own scripts, before the first computation (JAX
-sets its cache up at the first compilation of a process).
+Compiling a fit is the largest part of a fresh process's first fit; with the cache on,
+the next process that fits the same structure loads the compiled program from disk
+instead (figures in ``benchmarks/batch_fit_notes.md``). The ``pointax`` command turns it
+on for every subcommand (``$POINTAX_JAX_CACHE``); call :func:`enable_compilation_cache`
+in your own scripts, before the first computation (JAX sets its cache up at the first
+compilation of a process). It sets JAX's public options only
+(``jax_compilation_cache_dir``, ``jax_persistent_cache_min_compile_time_secs``).
 """
 
 from __future__ import annotations
@@ -43,8 +41,9 @@ def enable_compilation_cache(directory: str | os.PathLike | None = None, min_com
             are kept (the small ones are quicker to compile than to load).
 
     The traced fits go into its ``programs`` folder (:mod:`pointax.fitting.programs`),
-    so that a later process neither traces nor compiles a fit of the same structure
-    again; :func:`pointax.fitting.programs.clear` empties it.
+    so that a later process does not trace a fit of the same structure again (and
+    finds its compiled code in this cache); :func:`pointax.fitting.programs.clear`
+    empties it.
 
     Returns:
         The directory in use, or None when ``$POINTAX_JAX_CACHE`` is empty and no

@@ -1,54 +1,40 @@
-"""Traced and compiled fits kept on disk between processes, so that a fresh process
-neither traces nor compiles again what an earlier one did for the same model structure.
+"""Traced fits kept on disk between processes (:mod:`jax.export`), so that a fresh process
+does not trace again what an earlier one traced for the same model structure.
 
 JAX's persistent compilation cache (:mod:`pointax.fitting.compilation_cache`) keeps XLA's
-compiled code, but every new process still traces the fit from Python first: 2-3 s
-of the 4-5 s a fresh ``pointax fit`` took with that cache warm. Here each fit is kept
-twice, beside that cache:
-
-* the traced program, exported (:mod:`jax.export`, ``<key>.program``): portable, read
-  when the executable is missing or unreadable, and then compiled;
-* the compiled executable (:mod:`jax.experimental.serialize_executable`,
-  ``<key'>.executable``, ``key'`` adding the machine: backend, device, CPU features,
-  ``XLA_FLAGS``): a later process with the same structure, options, data shapes,
-  software and machine runs it without lowering the program or asking XLA's cache
-  (0.1-0.15 s of a 1.7 s warm ``pointax fit``).
-
-A command may also name its *context* (:func:`prefetch`: ``pointax fit`` names its
-data file): the executable the last process of that context ran then starts loading in
-a background thread at once, while the process imports the rest of pointax and reads
-its data, and serves the fit if it is the one asked for.
+compiled code, but every new process still traces the fit from Python first, and tracing
+optimistix's solver loop costs more than loading the compiled code
+(``benchmarks/interactive_notes.md``). Here each fit's traced program is exported
+(``<key>.program``); a later process with the same structure reads it, and compiling it
+is then a hit in XLA's cache.
 
 An entry's key is a hash of the program's name, the pytree structure (every node's
 class by module and qualified name, its static configuration) and shapes of its inputs,
 the fit options, and the versions of pointax (the hash of its source files), JAX,
 jaxlib, equinox, lineax and optimistix: a change of any of them writes a new entry,
-never reads a stale one. Only programs built of pointax's own classes go to disk: the
-source of a user's term class is not part of the key, so a fit with one is traced once
-per process (an edited term must never run its old program). Clear the cache with
-:func:`clear` (or delete the folder, ``programs`` inside ``$POINTAX_JAX_CACHE``, by
-default ``~/.cache/pointax/jax/programs``).
+never reads a stale one. An entry that cannot be read (a truncated file, another
+writer) is traced again and replaced, with a one-line :class:`RuntimeWarning`. Only
+programs built of pointax's own classes go to disk: the source of a user's term class
+is not part of the key, so a fit with one is traced once per process (an edited term
+must never run its old program). Clear the cache with :func:`clear` (or delete the
+folder, ``programs`` inside ``$POINTAX_JAX_CACHE``, by default
+``~/.cache/pointax/jax/programs``).
 
-Off until :func:`pointax.enable_compilation_cache` turns it on (the ``pointax``
-command does); a program that cannot be exported or stored (say, a term class defined
-inside a function, a result whose structure cannot be rebuilt) runs as an ordinary
-compiled function. Executables are loaded with :mod:`pickle` and run as machine code:
-like XLA's own cache, the folder must be written by no one but its user.
+Off until :func:`pointax.enable_compilation_cache` turns it on (the ``pointax`` command
+does); a program that cannot be exported or stored (say, a term class defined inside a
+function, a result whose structure cannot be rebuilt, a host callback) runs as an
+ordinary compiled function.
 """
 
 from __future__ import annotations
 
-import atexit
 import hashlib
 import importlib.metadata
-import json
-import math
 import os
-import pickle
-import platform
 import re
 import shutil
 import threading
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -57,18 +43,15 @@ import numpy as np
 
 from . import xla_options
 
-__all__ = ["set_directory", "directory", "call", "clear", "prefetch", "STATS"]
+__all__ = ["set_directory", "directory", "call", "clear", "STATS"]
 
-STATS = {
-    "loaded": 0, "exported": 0, "stored": 0, "memory": 0, "executables_loaded": 0, "executables_stored": 0,
-    "prefetch_started": 0, "prefetched": 0,
-}  # fmt: skip
+STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "unreadable": 0}
 """How programs were obtained in this process (for tests and benchmarks)."""
 
 _DIRECTORY: Path | None = None
 _MEMORY: dict = {}
 _LOCK = threading.Lock()
-_FORMAT = 2  # 1 named classes by their bare name: the linear and rigorous IA shared entries
+_FORMAT = 3  # 1 named classes by their bare name; 2 kept compiled executables beside the programs
 
 
 def set_directory(path: str | os.PathLike | None) -> None:
@@ -119,7 +102,7 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable, fast
     if entry is None:
         expected = structure(*args, static)
         key = _key(name + (" fast-compile" if fast_compile else ""), in_tree, avals, static)
-        entry = (key is not None and (_load_executable(key, expected) or _load(key, expected, fast_compile))) or _export(
+        entry = (key is not None and _load(key, expected, fast_compile)) or _export(
             key, fn, in_tree, avals, static, expected, fast_compile
         )
         with _LOCK:
@@ -174,6 +157,8 @@ _VERSIONS: list = []
 
 
 def _versions() -> str:
+    """pointax's source hash and the installed versions of the libraries a program is
+    traced with (part of every key)."""
     if not _VERSIONS:
         source = hashlib.sha256()
         root = Path(__file__).resolve().parent.parent
@@ -194,258 +179,25 @@ def _path(key: str | None) -> Path | None:
     return None if _DIRECTORY is None or key is None else _DIRECTORY / f"{key}.program"
 
 
-_MACHINE: list = []
-
-
-def _machine() -> str:
-    """What a compiled executable also depends on: backend, device kind, the CPU's
-    features (XLA compiles for the host's instruction set), ``XLA_FLAGS``."""
-    if not _MACHINE:
-        device = jax.devices()[0]
-        cpu = ""
-        try:
-            with open("/proc/cpuinfo") as f:
-                cpu = next((line for line in f if line.startswith(("flags", "Features"))), "")
-        except OSError:
-            pass
-        parts = [device.platform, device.device_kind, platform.machine(), cpu]  # (platform.processor() runs `uname -p`: 4 ms)
-        _MACHINE.append("\n".join(parts + [os.environ.get("XLA_FLAGS", "")]))
-    return _MACHINE[0]
-
-
-def _executable_path(key: str | None) -> Path | None:
-    if _DIRECTORY is None or key is None:
-        return None
-    return _DIRECTORY / f"{hashlib.sha256((key + _machine()).encode()).hexdigest()}.executable"
-
-
-def _load_executable(key: str, out_tree):
-    path = _executable_path(key)
-    if path is None:
-        return None
-    with _LOCK:
-        pending = _PREFETCH.pop(path, None)
-    if pending is not None:
-        thread, box = pending
-        thread.join()
-        loaded = box[0] if box else None
-        STATS["prefetched"] += loaded is not None
-    elif path.is_file():
-        loaded = _read_executable(path)
-    else:
-        return None
-    if loaded is None:  # unreadable, from another writer: compile again
-        return None
-    compiled, flat_out_tree = loaded
-    if flat_out_tree.num_leaves != out_tree.num_leaves:
-        return None
-    STATS["executables_loaded"] += 1
-    _remember(path)
-    return compiled, [out_tree]
-
-
-def _read_executable(path: Path):
-    """``(compiled, its flat result structure)`` from an executable file, or None."""
-    try:
-        serialized, in_tree, flat_out_tree = pickle.loads(path.read_bytes())
-        if jax.default_backend() == "cpu":
-            _initialise_lapack()
-        return _serializer().deserialize_and_load(serialized, in_tree, flat_out_tree), flat_out_tree
-    except Exception:
-        return None
-
-
-_PREFETCH: dict[Path, tuple[threading.Thread, list]] = {}
-_CONTEXT: list[str] = []
-_RECENT = "recent.json"
-_RECENT_KEPT = 64
-
-
-def prefetch(context: str) -> bool:
-    """Start loading, in a background thread, the executable that the last process of
-    this ``context`` ran (the ``pointax`` command passes its subcommand and data file),
-    and remember the context for the executables this process runs.
-
-    Loading a fit's executable takes 0.1-0.15 s, and XLA releases the GIL while it does;
-    a warm ``pointax fit`` spends longer than that importing equinox and pointax and
-    reading the run before it knows which program it needs. The prefetched executable is
-    used only if it is the one the fit then asks for (by its key); otherwise it is left
-    unused. Returns whether a load was started."""
-    if _DIRECTORY is None:
-        return False
-    _CONTEXT[:] = [context]
-    name = _recent().get(context)
-    path = None if name is None else _DIRECTORY / name
-    if path is None or path in _PREFETCH or not path.is_file():
-        return False
-    jax.devices()  # the backend, started here rather than in the thread
-    box: list = []
-    thread = threading.Thread(target=lambda: box.append(_read_executable(path)), name="pointax-prefetch", daemon=True)
-    with _LOCK:
-        _PREFETCH[path] = (thread, box)
-    thread.start()
-    STATS["prefetch_started"] += 1
-    return True
-
-
-def _finish_prefetches() -> None:
-    """Wait for loads still running at exit (an unused prefetch), so that none runs while
-    the interpreter shuts down."""
-    for thread, _ in list(_PREFETCH.values()):
-        thread.join()
-
-
-atexit.register(_finish_prefetches)
-
-
-def _recent() -> dict:
-    try:
-        recent = json.loads((_DIRECTORY / _RECENT).read_text())
-    except (OSError, ValueError):
-        return {}
-    return recent if isinstance(recent, dict) else {}
-
-
-def _remember(path: Path) -> None:
-    """Note ``path`` as the executable of this process's context (for :func:`prefetch`)."""
-    if not _CONTEXT or _DIRECTORY is None:
-        return
-    recent = _recent()
-    if recent.get(_CONTEXT[0]) == path.name:
-        return
-    recent.pop(_CONTEXT[0], None)
-    recent[_CONTEXT[0]] = path.name  # the most recent last
-    try:
-        _write(_DIRECTORY / _RECENT, json.dumps(dict(list(recent.items())[-_RECENT_KEPT:])).encode())
-    except OSError:  # a read-only folder: no prefetch next time
-        pass
-
-
-def _serializer():
-    from jax.experimental import serialize_executable
-
-    return serialize_executable
-
-
-_LAPACK_LOCK = threading.Lock()
-
-
-def _initialise_lapack() -> None:
-    """Load the LAPACK routines the executable calls (from SciPy), as lowering a program
-    with linear algebra does: without it, a fit's executable would call null pointers."""
-    with _LAPACK_LOCK:  # (a prefetch thread may be here too)
-        _load_scipy_lapack_tables()
-        from jaxlib import lapack
-
-        lapack.prepare_lapack_call("getrf_ffi", np.dtype(np.float64))
-
-
-SCIPY_LAPACK_TABLES = ("cython_blas", "cython_lapack")
-"""The modules of ``scipy.linalg`` whose function tables jaxlib reads for LAPACK."""
-
-
-def _load_scipy_lapack_tables() -> None:
-    """Load ``scipy.linalg.cython_blas`` and ``cython_lapack`` from their files without
-    running ``scipy.linalg``'s ``__init__``, which jaxlib's import of them would:
-    that package imports NumPy's f2py and SciPy's array-API layer, about 0.1 s of a
-    0.9 s warm ``pointax fit`` for two tables of function pointers. Later imports of
-    ``scipy.linalg`` are unaffected (they find these two modules already loaded; only
-    the attributes ``scipy.linalg.cython_blas`` and ``.cython_lapack`` are not set on
-    the package, where no Python code reads them). Where ``scipy.linalg`` is imported
-    already, or the files cannot be found, it does nothing and jaxlib imports them."""
-    import sys
-
-    if "scipy.linalg" in sys.modules or all(f"scipy.linalg.{m}" in sys.modules for m in SCIPY_LAPACK_TABLES):
-        return
-    import importlib.machinery
-    import importlib.util
-
-    try:
-        spec = importlib.util.find_spec("scipy")  # a top-level package: not imported by this
-        folder = Path(spec.submodule_search_locations[0]) / "linalg"
-        for module in SCIPY_LAPACK_TABLES:
-            name = f"scipy.linalg.{module}"
-            if name in sys.modules:
-                continue
-            path = next(p for p in folder.iterdir() if p.name.startswith(f"{module}.") and p.suffix in {".so", ".pyd"})
-            loader = importlib.machinery.ExtensionFileLoader(name, str(path))
-            loaded = importlib.util.module_from_spec(importlib.util.spec_from_file_location(name, path, loader=loader))
-            loader.exec_module(loaded)
-            sys.modules[name] = loaded
-    except Exception:  # another layout of SciPy: jaxlib imports them the usual way
-        return
-
-
-_OWN_COMPILATION = {"xla_embed_ir_in_executable": False}
-"""XLA's default, given explicitly: XLA's cache keys these compilations apart from any
-other of the same program (:func:`_compiled`)."""
-
-_CACHE_HITS = threading.local()
-_COMPILING = threading.Lock()
-_LISTENING: list = []
-
-
-def _count_cache_hit(event: str, **_) -> None:
-    if event == "/jax/compilation_cache/cache_hits" and getattr(_CACHE_HITS, "count", None) is not None:
-        _CACHE_HITS.count += 1
-
-
-
-
-def _compiled(key: str | None, exported, fast_compile: bool):
-    """``exported``, compiled; its executable kept on disk where programs are.
-
-    An executable that XLA's persistent cache returned cannot be serialised again (its
-    machine code is not kept: the next process fails with "Function ... not found"), so
-    the executable is stored only from a compilation of its own, told apart in XLA's
-    cache by :data:`_OWN_COMPILATION` and checked by counting the cache's hits."""
-    path = _executable_path(key)
-    if path is None:
-        return xla_options.jit(exported.call, fast_compile)
-    if not _LISTENING:
-        jax.monitoring.register_event_listener(_count_cache_hit)
-        _LISTENING.append(True)
-    lowered = jax.jit(exported.call).lower(*exported.in_avals)
-    # (Asked before counting: finding whether XLA knows the fast options compiles a tiny
-    # program, which may hit XLA's cache.)
-    options = {**_OWN_COMPILATION, **(xla_options.fast_compile_options() if fast_compile else {})}
-    with _COMPILING:
-        # Nor does XLA's cache keep this compilation (it would be read, not compiled, when
-        # an executable is lost): its compile-time threshold raised while it runs.
-        threshold = jax.config.jax_persistent_cache_min_compile_time_secs
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", math.inf)
-        _CACHE_HITS.count = 0
-        try:
-            compiled = lowered.compile(compiler_options=options)
-            fresh = _CACHE_HITS.count == 0
-        finally:
-            _CACHE_HITS.count = None
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
-    if fresh:
-        try:
-            _write(path, pickle.dumps(_serializer().serialize(compiled)))
-            STATS["executables_stored"] += 1
-            _remember(path)
-        except Exception:  # not serialisable, a full disk: the program alone is kept
-            pass
-    return compiled
-
-
 def _load(key: str, out_tree, fast_compile: bool):
     path = _path(key)
     if path is None or not path.is_file():
         return None
     try:
         exported = jax.export.deserialize(bytearray(path.read_bytes()))
-    except Exception:  # unreadable or from an incompatible writer: export again
-        return None
-    if len(exported.out_avals) != out_tree.num_leaves:
+        if len(exported.out_avals) != out_tree.num_leaves:
+            raise ValueError(f"{len(exported.out_avals)} results where the fit has {out_tree.num_leaves}")
+    except Exception as err:  # truncated, or from another writer: traced again and replaced
+        STATS["unreadable"] += 1
+        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+        note = f"stored program {path} unreadable ({reason}); tracing the fit again"
+        warnings.warn(note, RuntimeWarning, stacklevel=3)
         return None
     STATS["loaded"] += 1
-    return _compiled(key, exported, fast_compile), [out_tree]
+    return xla_options.jit(exported.call, fast_compile), [out_tree]
 
 
-def _export(key: str, fn: Callable, in_tree, avals, static, expected, fast_compile: bool):
+def _export(key: str | None, fn: Callable, in_tree, avals, static, expected, fast_compile: bool):
     out_tree = []
 
     def flat(*leaves):
@@ -477,13 +229,12 @@ def _export(key: str, fn: Callable, in_tree, avals, static, expected, fast_compi
         out_tree.clear()
         return xla_options.jit(lambda *leaves: flat(*leaves), fast_compile), out_tree
     STATS["exported"] += 1
-    if out_tree[-1] != expected:
-        return xla_options.jit(exported.call, fast_compile), out_tree
-    _store(key, exported)
-    return _compiled(key, exported, fast_compile), out_tree
+    if out_tree[-1] == expected:
+        _store(key, exported)
+    return xla_options.jit(exported.call, fast_compile), out_tree
 
 
-def _store(key: str, exported) -> None:
+def _store(key: str | None, exported) -> None:
     path = _path(key)
     if path is None:
         return

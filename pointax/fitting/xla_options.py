@@ -1,10 +1,10 @@
 """XLA compiler options that shorten the compilation of pointax's larger programs.
 
-On the CPU, XLA's older loop emitters compile these programs in well under half the
-time of its fusion emitters, and the programs run as fast (figures in
-``benchmarks/batch_fit_notes.md``): the batched fixed-step turntable fit in 1.6 s
-against 2.6 s, the residuals and Jacobian of model building's 44-term superset of the
-MMT run in 1.0 s against 2.6 s. Optimisation level 2 took another 0.1-0.2 s off.
+On the CPU, XLA's older loop emitters compile these programs (the batched fixed-step
+fit, model building's residuals and Jacobian, the solo fit) in well under half the time
+of its fusion emitters, and the programs run as fast (figures in
+``benchmarks/batch_fit_notes.md``). The options go through ``jax.jit``'s public
+``compiler_options``, and only where this XLA knows them.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ def require_matplotlib():
     except ImportError as err:  # pragma: no cover - depends on the environment
         raise ImportError(
             "pointax's plots need matplotlib, an optional extra: pip install 'pointax[plot]' "
-            "(or pip install 'matplotlib>=3.7')"
+            "(or pip install 'matplotlib>=3.9')"
         ) from err
     return matplotlib
 

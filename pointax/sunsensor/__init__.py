@@ -5,7 +5,7 @@ An edge of pointax built on torch and kornia (the JAX core never imports it):
 * :mod:`~pointax.sunsensor.frames`: synthetic frames of the limb-darkened sun with an
   exact centre (a camera like the sun-vector paper's, noise, saturation, hot pixels,
   clipping, thin cloud).
-* :mod:`~pointax.sunsensor.centroid`: batched intensity centroids and limb fits with a
+* :mod:`~pointax.sunsensor.centroids`: batched intensity centroids and limb fits with a
   status and reason per frame.
 * :mod:`~pointax.sunsensor.camera`: intrinsics and radial distortion through kornia,
   pixels <-> unit rays in the camera frame.
@@ -29,11 +29,11 @@ from ..core.lazy import lazy_namespace
 _EXPORTS = {
     "Camera": "camera",
     "paper_camera": "camera",
-    "METHODS": "centroid",
-    "STATUSES": "centroid",
-    "Centroids": "centroid",
-    "centroid": "centroid",
-    "check_frame": "centroid",
+    "METHODS": "centroids",
+    "STATUSES": "centroids",
+    "Centroids": "centroids",
+    "centroid": "centroids",
+    "check_frame": "centroids",
     "PAPER_ASPECT": "frames",
     "PAPER_SUN_RADIUS_PX": "frames",
     "SUN_ANGULAR_RADIUS": "frames",
@@ -73,6 +73,4 @@ def require_vision() -> None:
         )
 
 
-# ``centroid`` is both a function and the submodule defining it: the package keeps the
-# function whichever is imported first (pointax.core.lazy).
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS)

@@ -1,6 +1,6 @@
 """The error-term library.
 
-* :mod:`pointax.terms.tpoint`: TPOINT's alt-az terms in TPOINT's linear form.
+* :mod:`pointax.terms.tpoint_terms`: TPOINT's alt-az terms in TPOINT's linear form.
 * :mod:`pointax.terms.rigorous`: the same terms as exact rotations.
 * :mod:`pointax.terms.equatorial`: TPOINT's equatorial terms (IH ID CH NP MA ME TF FO
   DAF HCES HCEC DCES DCEC), linear and rigorous; ``tpoint(..., mount="equatorial")``.
@@ -19,7 +19,7 @@
 * :mod:`pointax.terms.xy`: the level-mount (X-Y) paper's families: spherical-harmonic,
   basic, rotation-matrix (rigorous) and its linearised expansion.
 * :mod:`pointax.terms.camera`: the sun-sensor camera's mounting on the mirror.
-* :mod:`pointax.terms.heliostat`: axis tilts and joint zeros of a tilt-tilt heliostat.
+* :mod:`pointax.terms.heliostat_terms`: axis tilts and joint zeros of a tilt-tilt heliostat.
 * :class:`Term`, :func:`param`: the base class and field helper for new terms.
 
 ``tpoint("IA IE NPAE CA AN AW TF TX HACA2")``, ``gpoint_terms("ia,ie,tn,az:sin:az:2")``
@@ -39,6 +39,7 @@ _NAMES = (
     "names",
     "rigorous",
     "FORMS",
+    "DEFAULT_FORM",
     "BASIC_ALTAZ",
     "BASIC_EQUATORIAL",
     "MOUNTS",
@@ -115,15 +116,16 @@ _NAMES = (
 )
 
 _SUBMODULES = (
-    "equatorial", "equatorial_special", "gpoint", "harmonic", "library", "polynomial", "repertoire",
-    "tpoint_special",
+    "camera", "equatorial", "equatorial_special", "gpoint", "harmonic", "heliostat_terms", "library", "polynomial",
+    "repertoire", "rigorous", "sun_vector", "tpoint_special", "xy",
 )  # fmt: skip
 
 # Every public name loads from :mod:`.library`, which imports the term modules: importing
 # :mod:`pointax.core.term` (the term interface, as the core does) loads no particular term.
 # ``heliostat`` and ``tpoint`` are the functions (their modules: ``heliostat_terms``,
-# ``pointax.terms.tpoint``), also once those modules are imported by name. The
+# ``tpoint_terms``: no module is named like an exported name). The
 # equatorial TF (its name is the alt-az TF's) is ``pointax.terms.equatorial.TF``.
-__getattr__, __dir__ = lazy_namespace(__name__, {name: "library" for name in _NAMES}, _SUBMODULES, shadowed=("heliostat", "tpoint"))
+_EXPORTS = {name: "library" for name in _NAMES if name not in _SUBMODULES}
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)
 
 __all__ = list(_NAMES)
