@@ -12,7 +12,7 @@ One run, identical simulated data for every method:
   paper's formula (the reference), and bare optimistix Levenberg-Marquardt on a plain
   JAX residual function under ``jax.vmap``.
 * **tpoint**: TPOINT's eight basic alt-az terms in their linear form
-  (``px.AltAz(px.terms.tpoint("IA IE NPAE CA AN AW TF TX"))``), 60 stars per site at
+  (``px.AltAz(px.terms.tpoint("IA IE NPAE CA AN AW TF TX", form="linear"))``), 60 stars per site at
   random positions above 15 deg, 1" noise. Methods: pointax ``px.fit_batch`` with each
   residual form (``residual_form="tpoint"``: TPOINT's own, terms at the observed
   position, a linear problem; ``"sky"``: exact, terms at the sky position the model
@@ -212,7 +212,7 @@ def check_tpoint_simulation(data: dict) -> float:
     """The NumPy model against px.simulate (noise-free) on two sites; largest difference, rad."""
     worst = 0.0
     for k in range(2):
-        model = px.AltAz(px.terms.tpoint(TPOINT_TERMS, values=dict(zip(TPOINT_TERMS, data["truth"][k]))))
+        model = px.AltAz(px.terms.tpoint(TPOINT_TERMS, form="linear", values=dict(zip(TPOINT_TERMS, data["truth"][k]))))
         ours = px.rotations.azel_to_enu_numpy(*np.moveaxis(tpoint_sky(data["truth"][k], data["encoder"][k]), -1, 0))
         theirs = np.asarray(px.simulate(model, data["encoder"][k]).target)
         worst = max(worst, float(np.max(np.abs(ours - theirs))))
@@ -573,7 +573,7 @@ def run_tpoint(sizes, n_ref, out_rows):
             **loop_row(kat_seconds, size), **param_diff(kat, classic7, everywhere, everywhere),
             "note": "difference against scipy lstsq of the same seven terms"}
     for form in TPOINT_FORMS:
-        model = px.AltAz(px.terms.tpoint(TPOINT_TERMS), residual_form=form)
+        model = px.AltAz(px.terms.tpoint(TPOINT_TERMS, form="linear"), residual_form=form)
         for name, options in VARIANTS.items():
             label = f"{name} ({form} residuals)"
             rows[label] = {}

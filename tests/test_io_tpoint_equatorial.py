@@ -352,10 +352,11 @@ PMFIT_SIGMA = {"IH": 4.0337, "ID": 2.2735, "CH": 3.2661, "ME": 2.4953, "MA": 1.3
 CGX_REFERENCE = {"IH": -18828.0, "ID": -3452.2, "CH": -1373.7, "NP": -599.2, "MA": -3047.8, "ME": 469.1}
 
 
-def _fit(run, names, residual_form="tpoint"):
+def _fit(run, names, residual_form="tpoint", form=None):
     import pointax as px
 
-    terms = px.terms.tpoint(names, mount="equatorial", latitude=run.latitude)
+    form = form or px.terms.DEFAULT_FORM
+    terms = px.terms.tpoint(names, form=form, mount="equatorial", latitude=run.latitude)
     return px.fit(run.model(terms, residual_form=residual_form), run)
 
 
@@ -378,7 +379,7 @@ def test_theskyx_fit_through_the_reader_and_px_fit(equatorial_dir):
     the run's southern flipped readings (written -180 deg - dec) included."""
     run = read_tpoint(equatorial_dir / "cgx-l-data.dat")
     assert (run.encoder[:, 1] < -math.pi / 2).any()
-    result = _fit(run, list(CGX_REFERENCE))
+    result = _fit(run, list(CGX_REFERENCE), form="linear")  # REFERENCE.txt's figures: the linear form
     assert result.converged
     assert float(result.sky_rms) / ARCSEC == pytest.approx(235.03, rel=0.01)
     assert float(result.popn_sd) / ARCSEC == pytest.approx(239.94, rel=0.01)
@@ -396,7 +397,8 @@ def test_equatorial_runs_on_the_command_line(equatorial_dir, tmp_path, capsys):
 
     cgx = str(equatorial_dir / "cgx-l-data.dat")
     out = tmp_path / "cgx.mod"
-    assert main(["fit", cgx, "--residuals", "tpoint", "--json", "--write-model", str(out)]) == 0
+    # REFERENCE.txt's figures are the linear form's least squares: --form linear
+    assert main(["fit", cgx, "--residuals", "tpoint", "--form", "linear", "--json", "--write-model", str(out)]) == 0
     data = json.loads(capsys.readouterr().out)
     assert [t["name"] for t in data["terms"]] == list(CGX_REFERENCE)
     assert data["sky_rms_arcsec"] == pytest.approx(235.03, rel=0.01)
@@ -414,7 +416,7 @@ def test_equatorial_runs_on_the_command_line(equatorial_dir, tmp_path, capsys):
     with pytest.raises(ValueError, match="needs the site's latitude"):
         mod.model(mount="equatorial")
 
-    assert main(["fit", cgx, "--residuals", "tpoint", "--list", "--terms", "IH,ID,CH,NP,MA,ME,TF,FO,DAF"]) == 0
+    assert main(["fit", cgx, "--residuals", "tpoint", "--form", "linear", "--list", "--terms", "IH,ID,CH,NP,MA,ME,TF,FO,DAF"]) == 0
     text = capsys.readouterr().out
     assert "HA obs   Dec obs" in text
     assert "Sky RMS =  182." in text or "Sky RMS =   182." in text
@@ -427,7 +429,7 @@ def test_equatorial_runs_on_the_command_line(equatorial_dir, tmp_path, capsys):
 
     script = tmp_path / "eq.ptp"
     script.write_text(f"INDAT {cgx}\nUSE IH ID CH NP MA ME\nFIT\nFIT\nFIT\nOUTMOD {tmp_path / 'proc.mod'}\n")
-    assert main(["tpoint", "--residuals", "tpoint", str(script)]) == 0
+    assert main(["tpoint", "--residuals", "tpoint", "--form", "linear", str(script)]) == 0
     proc = read_model(tmp_path / "proc.mod")
     assert proc.sky_rms == pytest.approx(235.03, rel=0.01)
 

@@ -48,6 +48,7 @@ def _reference(raw_deg, offsets_rad, cross_elevation=True, names=SIX):
 
 
 def _fit_json(capsys, *argv):
+    """``pointax fit ... --json``; the fits compared with :func:`_reference` say ``--form linear`` (its terms)."""
     code = main(["fit", *map(str, argv), "--json"])
     captured = capsys.readouterr()
     return code, (json.loads(captured.out) if captured.out.strip() else None), captured.err
@@ -85,8 +86,9 @@ def test_cli_reads_a_headerless_table_with_columns(capsys, tmp_path):
     table = tmp_path / "named.csv"
     table.write_text("\n".join(",".join(r) for r in rows) + "\n")
     code, out, err = _fit_json(
-        capsys, table, "--columns", "_,az,el,dxel,del,_,skip", "--terms", ",".join(SIX), "--residuals", "tpoint"
-    )
+        capsys, table, "--columns", "_,az,el,dxel,del,_,skip", "--terms", ",".join(SIX), "--residuals", "tpoint",
+        "--form", "linear",
+    )  # fmt: skip
     assert code == 0, err
     assert out["n_obs"] == 60 and len(out["observations"]) == 60 and out["observations"][0]["line"] == 1
     raw = [[float(r[1]), float(r[2])] for r in rows]
@@ -97,7 +99,7 @@ def test_cli_reads_a_headerless_table_with_columns(capsys, tmp_path):
     # by number and name-free pairs: the same fit
     code, again, _ = _fit_json(
         capsys, table, "--format", "offsets", "--columns", "az=2,el=3,dxel=4,del=5", "--terms", ",".join(SIX),
-        "--residuals", "tpoint",
+        "--residuals", "tpoint", "--form", "linear",
     )  # fmt: skip
     assert code == 0 and _values(again) == pytest.approx(_values(out), abs=1e-9)
 
@@ -108,8 +110,9 @@ def test_cli_star_tracker_degrees_plain_daz(capsys):
     line are otherwise ambiguous)."""
     table = DATA / "tracker_plain.txt"
     code, out, err = _fit_json(
-        capsys, table, "--units", "deg", "--plain-daz", "--azimuth", "S-E", "--terms", ",".join(SIX), "--residuals", "tpoint"
-    )
+        capsys, table, "--units", "deg", "--plain-daz", "--azimuth", "S-E", "--terms", ",".join(SIX), "--residuals", "tpoint",
+        "--form", "linear",
+    )  # fmt: skip
     assert code == 0, err
     data = np.loadtxt(table, comments="!")
     assert out["n_obs"] == len(data) == 40
@@ -121,7 +124,7 @@ def test_cli_star_tracker_degrees_plain_daz(capsys):
     # --sign raw-observed reads the same numbers as corrections: every term changes sign
     code, flipped, _ = _fit_json(
         capsys, table, "--units", "deg", "--plain-daz", "--azimuth", "S-E", "--terms", ",".join(SIX),
-        "--residuals", "tpoint", "--sign", "raw-observed",
+        "--residuals", "tpoint", "--form", "linear", "--sign", "raw-observed",
     )  # fmt: skip
     assert code == 0
     for name, value in _values(flipped).items():

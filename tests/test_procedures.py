@@ -83,7 +83,8 @@ def test_observatory_procedure_matches_numpy_steps(shared_data, tmp_path, capsys
         "GHIST\n"
         "GC out/step4.pdf\n",
     )
-    assert main(["tpoint", "--azimuth", "S-E", str(main_script)]) == 0
+    # The NumPy steps (tests/tpoint_numpy.py) are of TPOINT's linear terms: --form linear.
+    assert main(["tpoint", "--azimuth", "S-E", "--form", "linear", str(main_script)]) == 0
     out = capsys.readouterr().out
 
     observed, raw, _ = ref.read_run(data)
@@ -138,7 +139,7 @@ def test_linear_residuals_fix_lose_mask_against_numpy_lstsq(tmp_path, capsys):
         "unmask 11\nfit\noutmod d.mod\n"
         "fix ca\nunmask\nfit\noutmod e.mod\n",
     )
-    assert main(["tpoint", "--azimuth", "S-E", "--residuals", "tpoint", str(s)]) == 0
+    assert main(["tpoint", "--azimuth", "S-E", "--residuals", "tpoint", "--form", "linear", str(s)]) == 0
     capsys.readouterr()
     observed, raw, _ = ref.read_run(MMT_DAT)
     n = len(observed)
@@ -290,7 +291,7 @@ def test_fauto_adds_a_term_the_data_hold(tmp_path, capsys):
         text[number - 1] = " ".join(fields)
     (tmp_path / "hesa.dat").write_text("\n".join(text) + "\n")
     s = script(tmp_path, "fauto.ptp", "indat hesa.dat\nuse IA IE NPAE CA AN AW TF TX\nfit\nfauto HESA HECA\nfit\noutmod f.mod\n")
-    assert main(["tpoint", "--azimuth", "S-E", str(s)]) == 0
+    assert main(["tpoint", "--azimuth", "S-E", "--form", "linear", str(s)]) == 0
     out = capsys.readouterr().out
     assert "add" in out and "HESA" in out
     values, _, _, _ = ref.read_model_values(tmp_path / "f.mod")

@@ -450,10 +450,7 @@ def test_sky_noise_and_unreachable_stars(true_model, plan):
 def test_simulator_drives_an_xy_mount(plan):
     # Any mount: a perfect X-Y mount (the level-mount paper's) must read
     # L = atan2(East, Up), B = asin(North) for each star (closed form, written here).
-    xy_mount = getattr(px.mounts, "XYMount", None)
-    if xy_mount is None:
-        pytest.skip("pointax.core.mounts.XYMount is not in this checkout")
-    model = px.Model(xy_mount(), ())
+    model = px.Model(px.XYMount(), ())
     run = stars.simulate_star_run(model, plan, 0.0)
     e, n, up = plan.direction.T
     np.testing.assert_allclose(run.true_encoder[:, 0], np.arctan2(e, up), rtol=0, atol=1e-11)

@@ -216,6 +216,11 @@ def test_rotation_between():
 
 
 def test_camera_frame_refuses_sky_offset_terms():
-    model = px.AltAz(px.terms.tpoint("IA IE CA"))
+    model = px.AltAz(px.terms.tpoint("IA IE CA", form="linear"))
     with pytest.raises(ValueError, match="sky offsets"):
         camera_frame(model, jnp.array([0.1, 0.5]))
+    # The same terms in the rigorous form (the default) are rotations: they have an attitude.
+    rigorous = px.AltAz(px.terms.tpoint("IA IE CA", values={"IA": 1e-3, "IE": -2e-3, "CA": 5e-4}))
+    reading = jnp.array([0.1, 0.5])
+    frame = np.asarray(camera_frame(rigorous, reading))
+    np.testing.assert_allclose(frame[:, 2], np.asarray(rigorous(reading[None]))[0], atol=1e-14)

@@ -98,7 +98,8 @@ def test_katpoint_equivalent(name):
 def test_model_places_linear_terms_at_the_sky_position():
     """s = raw + sum coef * f(s): TPOINT evaluates its terms at the observed position."""
     coefs = {"IA": 1200, "IE": -30, "NPAE": 20, "CA": -15, "AN": 10, "AW": -12, "TF": 25, "TX": -3}
-    model = px.AltAz(px.terms.tpoint(list(coefs), values={k: v * ARCSEC for k, v in coefs.items()}))
+    values = {k: v * ARCSEC for k, v in coefs.items()}
+    model = px.AltAz(px.terms.tpoint(list(coefs), values=values, form="linear"))
     for raw in POSITIONS:
         sky = np.asarray(model.sky_angles(jnp.array(raw)))
         offset = sum(v * ARCSEC * np.asarray(TPOINT_BASIS[k](*sky)) for k, v in coefs.items())

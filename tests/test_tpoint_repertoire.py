@@ -280,8 +280,9 @@ def test_every_equatorial_named_term_is_stated():
 @pytest.mark.parametrize("name", sorted(WALLACE_EQUATORIAL))
 def test_equatorial_terms_are_wallaces_statements(name):
     """IH ... TF are checked on Wallace's own fit (test_equatorial_terms.py); the same
-    translation, and a finite zenith-distance move for the Z kind, give the others."""
-    term = px.terms.tpoint([name], values={name: 1.0}, mount="equatorial", latitude=LAT)[0]
+    translation, and a finite zenith-distance move for the Z kind, give the others.
+    Wallace's statements are of the linear form (offsets at the sky position)."""
+    term = px.terms.tpoint([name], values={name: 1.0}, mount="equatorial", latitude=LAT, form="linear")[0]
     for h, d in EQUAT:
         got = np.asarray(term.sky_offset(jnp.array([h, d])))
         np.testing.assert_allclose(got, wallace_equatorial(name, h, d, LAT), rtol=1e-6, atol=1e-7, err_msg=name)
@@ -319,7 +320,7 @@ POLY_ALTAZ = {
 @pytest.mark.parametrize("name", sorted(POLY_ALTAZ))
 def test_polynomial_terms_are_tptptermg(name):
     result, f = POLY_ALTAZ[name]
-    term = px.terms.tpoint([name], values={name: 1.0})[0]
+    term = px.terms.tpoint([name], values={name: 1.0}, form="linear")[0]
     for A, E in ALTAZ:
         v = f(A, E)
         want = {"A": (-v, 0.0), "E": (0.0, v), "S": (-v / c(E), 0.0), "Z": (0.0, -v)}[result]
@@ -328,18 +329,18 @@ def test_polynomial_terms_are_tptptermg(name):
 
 def test_named_and_generated_polynomials_agree():
     for named, generated in (("PAA1", "PAA"), ("PEE1", "PEE")):
-        a = px.terms.tpoint([named], values={named: 1.0})[0]
-        b = px.terms.polynomial_term(generated, coef=1.0)
+        a = px.terms.tpoint([named], values={named: 1.0}, form="linear")[0]
+        b = px.terms.polynomial_term(generated, coef=1.0, form="linear")
         assert b.name == generated
         for p in ALTAZ:
             np.testing.assert_allclose(np.asarray(a.sky_offset(jnp.array(p))), np.asarray(b.sky_offset(jnp.array(p))))
 
 
 def test_equatorial_polynomials():
-    term = px.terms.tpoint("PXD1H2", values={"PXD1H2": 1.0}, mount="equatorial")[0]
+    term = px.terms.tpoint("PXD1H2", values={"PXD1H2": 1.0}, mount="equatorial", form="linear")[0]
     for h, d in EQUAT:
         np.testing.assert_allclose(np.asarray(term.sky_offset(jnp.array([h, d]))), [d * h**2 / c(d), 0.0], rtol=1e-12)
-    wrapped = px.terms.tpoint("PHH1", values={"PHH1": 1.0}, mount="equatorial")[0]
+    wrapped = px.terms.tpoint("PHH1", values={"PHH1": 1.0}, mount="equatorial", form="linear")[0]
     assert float(wrapped.sky_offset(jnp.array([2 * np.pi - 0.5, 0.2]))[0]) == pytest.approx(-0.5)
 
 
@@ -375,7 +376,7 @@ def test_harmonics_in_zenith_distance():
         if named == "TX":
             continue
         a = px.terms.LINEAR_TERMS[named](coef=1.0)
-        b = px.terms.harmonic_term(harmonic, coef=1.0)
+        b = px.terms.harmonic_term(harmonic, coef=1.0, form="linear")
         for p in ALTAZ:
             np.testing.assert_allclose(np.asarray(a.sky_offset(jnp.array(p))), np.asarray(b.sky_offset(jnp.array(p))),
                                        atol=1e-14)  # fmt: skip
@@ -387,7 +388,7 @@ def test_harmonics_in_zenith_distance():
 def test_rigorous_generated_terms_agree_to_first_order():
     coef = 1.0 * ARCSEC
     for name in ("PAA2E", "PSZ2", "PZE1", "HZSZ2", "HSCZ"):
-        linear = px.AltAz(px.terms.tpoint([name], values={name: coef}))
+        linear = px.AltAz(px.terms.tpoint([name], values={name: coef}, form="linear"))
         rigorous = px.AltAz(px.terms.tpoint([name], values={name: coef}, form="rigorous"))
         nominal = px.AltAz([])
         d_lin, d_rig = linear(ALTAZ), rigorous(ALTAZ)
@@ -459,13 +460,14 @@ NEW_EQUATORIAL = "TX TFP FLOP DAB DNP HF HFX HFD X2HC HGES HGEC DGES DGEC CD4A C
 @pytest.mark.parametrize("mount, spec", [("altaz", NEW_ALTAZ), ("equatorial", NEW_EQUATORIAL)])
 def test_new_terms_are_neutral_at_zero_and_linear(mount, spec):
     positions = ALTAZ if mount == "altaz" else EQUAT
-    for term in px.terms.tpoint(spec, mount=mount, latitude=LAT):
+    for term in px.terms.tpoint(spec, mount=mount, latitude=LAT, form="linear"):
         assert term.linear_sky_offset and term.linear_by_construction and term.neutral_at_zero
         zero = np.asarray(jax.vmap(lambda p, tm=term: tm.sky_offset_at(SkyPoint.at(p)))(jnp.asarray(positions)))
         assert not zero.any(), term.name
         assert _linearity_error(term) == "", term.name
 
 
+@pytest.mark.slow
 def test_jit_vmap_grad_through_a_model_with_new_terms():
     names = NEW_ALTAZ.split()
     values = {n: (k + 1) * 0.7 * ARCSEC for k, n in enumerate(names)}
@@ -485,12 +487,12 @@ def test_jit_vmap_grad_through_a_model_with_new_terms():
 
 
 def test_fit_of_the_mmt_run_with_nrx_is_the_fit_with_ia():
-    """NRX = IA - ECES in TPOINT's definitions: swapping IA for NRX beside ECES changes the
-    parametrisation, not the fit (NRX takes IA's value, ECES moves by it)."""
+    """NRX = IA - ECES in TPOINT's (linear) definitions: swapping IA for NRX beside ECES
+    changes the parametrisation, not the fit (NRX takes IA's value, ECES moves by it)."""
     run = px.io.read_tpoint(MMT_DAT, azimuth="S-E")
     base = "IE NPAE CA AN AW TF TX ECES".split()
-    with_ia = px.fit(px.AltAz(px.terms.tpoint(["IA", *base]), azimuth=run.azimuth), run)
-    with_nrx = px.fit(px.AltAz(px.terms.tpoint(["NRX", *base]), azimuth=run.azimuth), run)
+    with_ia = px.fit(px.AltAz(px.terms.tpoint(["IA", *base], form="linear"), azimuth=run.azimuth), run)
+    with_nrx = px.fit(px.AltAz(px.terms.tpoint(["NRX", *base], form="linear"), azimuth=run.azimuth), run)
     assert float(with_nrx.sky_rms) == pytest.approx(float(with_ia.sky_rms), rel=1e-9)
     assert with_nrx.value("NRX") == pytest.approx(with_ia.value("IA"), abs=1e-6)
     assert with_nrx.value("ECES") == pytest.approx(with_ia.value("ECES") + with_ia.value("IA"), abs=1e-6)

@@ -126,7 +126,7 @@ def _equatorial_terms(tokens: list[str], form: str, latitude) -> tuple[Term, ...
 
 
 def family_model(
-    spec: str | Iterable[str], mount: Mount | Observations, *, naming: str = "tpoint", form: str = "linear"
+    spec: str | Iterable[str], mount: Mount | Observations, *, naming: str = "tpoint", form: str = "rigorous"
 ) -> Model:
     """A model named by a family or a list of terms, for the mount at hand.
 
@@ -148,7 +148,7 @@ def family_model(
             azimuth convention for alt-az), or a TPOINT run (an equatorial one gives
             its latitude).
         naming: 'tpoint' or 'gpoint' (alt-az term names only).
-        form: 'linear' or 'rigorous' (TPOINT terms only).
+        form: 'rigorous' (default) or 'linear' (TPOINT terms only).
 
     Raises:
         ValueError: an unknown name, a term named twice, or a mount without names.

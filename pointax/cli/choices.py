@@ -15,6 +15,7 @@ __all__ = [
     "SOLVERS",
     "LOSSES",
     "TERM_FORMS",
+    "DEFAULT_TERM_FORM",
     "RESIDUAL_FORMS",
     "AZIMUTH_CONVENTIONS",
     "BASIC_ALTAZ",
@@ -41,6 +42,9 @@ LOSSES = LOSS_NAMES
 TERM_FORMS = ("linear", "rigorous")
 """TPOINT term forms: the keys of :data:`pointax.terms.FORMS`."""
 
+DEFAULT_TERM_FORM = "rigorous"
+"""The term form when ``--form`` is not given: :data:`pointax.terms.DEFAULT_FORM`."""
+
 RESIDUAL_FORMS = ("sky", "tpoint")
 """What a fit minimises: :data:`pointax.core.model.RESIDUAL_FORMS`."""
 
@@ -54,7 +58,7 @@ GPOINT_ALTAZ_TERMS = ("ia", "tn", "te", "npae", "npoa", "ie", "tf")
 """gpoint's alt-az terms: :data:`pointax.terms.GPOINT_ALTAZ_TERMS`."""
 
 HELIOSTAT_DEFAULT = ("t1n", "t1u", "t2e", "t2n")
-"""A PAINT calibration's default terms: :data:`pointax.terms.heliostat.HELIOSTAT_DEFAULT`."""
+"""A PAINT calibration's default terms: :data:`pointax.terms.heliostat_terms.HELIOSTAT_DEFAULT`."""
 
 FOCAL_SPOT_METHODS = ("HeliOS", "UTIS")
 """PAINT focal-spot methods: :data:`pointax.io.paint.FOCAL_SPOT_METHODS`."""
@@ -69,7 +73,7 @@ SOLUTIONS = ("nearest", "normal", "flipped")
 """Mechanical solutions of ``pointax command``: :data:`pointax.core.inverse.SOLUTIONS`."""
 
 CENTROID_METHODS = ("auto", "intensity", "limb")
-"""Centroid methods: :data:`pointax.sunsensor.centroid.METHODS`."""
+"""Centroid methods: :data:`pointax.sunsensor.centroids.METHODS`."""
 
 RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy", "offsets")
 """Pointing-run formats :func:`pointax.io.load_run` reads: :data:`pointax.io.RUN_FORMATS`."""

@@ -187,7 +187,7 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
         default="N-E",
         help="tpoint: how the file counts azimuth (default N-E; the MMT run is S-E)",
     )
-    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="alt-az TPOINT term form (default: linear)")
+    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default=choices.DEFAULT_TERM_FORM, help="TPOINT term form (default: rigorous, as TPOINT applies its model)")
     group = p.add_mutually_exclusive_group()
     group.add_argument(
         "--holdout", type=float, default=None, metavar="FRACTION", help="hold back this fraction of the stars at random"

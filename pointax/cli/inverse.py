@@ -36,7 +36,7 @@ def add_command_parser(subparsers) -> argparse.ArgumentParser:
     )
     c.add_argument("--terms", default=None, help="terms of the model (default: turntable 'full'; altaz: the --model file's)")
     c.add_argument("--model", metavar="FILE", help="TPOINT model file with the fitted terms (altaz or equatorial)")
-    c.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="altaz: term form (default: linear)")
+    c.add_argument("--form", choices=sorted(choices.TERM_FORMS), default=choices.DEFAULT_TERM_FORM, help="TPOINT term form (default: rigorous, as TPOINT applies its model)")
     c.add_argument(
         "--azimuth",
         choices=sorted(choices.AZIMUTH_CONVENTIONS),

@@ -48,7 +48,7 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
         default="N-E",
         help="how the run files count azimuth (default N-E; the MMT runs are S-E)",
     )
-    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default="linear", help="term form (default: linear, as TPOINT)")
+    p.add_argument("--form", choices=sorted(choices.TERM_FORMS), default=choices.DEFAULT_TERM_FORM, help="term form (default: rigorous, as TPOINT applies its model)")
     p.add_argument(
         "--residuals",
         choices=list(choices.RESIDUAL_FORMS),

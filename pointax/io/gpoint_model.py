@@ -75,7 +75,7 @@ def _gpoint_number(x) -> str:
 
 
 def _model_of(source):
-    from ..fitting.result import FitResult
+    from ..fitting import FitResult
 
     return source.model if isinstance(source, FitResult) else source
 

@@ -126,7 +126,7 @@ class TpointModelFile:
         """Term values in radians, by name."""
         return {t.name: t.value * ARCSEC for t in self.terms}
 
-    def check_terms(self, form: str = "linear", mount: str = "altaz", latitude: float | None = None, names=None) -> tuple:
+    def check_terms(self, form: str = "rigorous", mount: str = "altaz", latitude: float | None = None, names=None) -> tuple:
         """The terms of this file (or those of ``names`` it holds) built for ``mount``
         with their values (:func:`pointax.terms.tpoint`): what INMOD and ``--model``
         read. Every term pointax cannot build is refused here, with the file and its
@@ -154,7 +154,7 @@ class TpointModelFile:
                 raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
         return tuple(terms)
 
-    def model(self, form: str = "linear", azimuth: str = "N-E", mount: str = "altaz", latitude: float | None = None):
+    def model(self, form: str = "rigorous", azimuth: str = "N-E", mount: str = "altaz", latitude: float | None = None):
         """The :class:`pointax.Model` these terms describe, with their values.
 
         ``mount``: 'altaz' (``azimuth`` its convention) or 'equatorial' (``latitude``
@@ -567,7 +567,7 @@ def write_model(
     terms are written under their names (``HACA2``) and read back as the same terms.
     For a fit result the sigmas, N and Sky RMS are written too.
     """
-    from ..fitting.result import FitResult
+    from ..fitting import FitResult
 
     if refraction is None:
         if run is None and isinstance(source, FitResult):

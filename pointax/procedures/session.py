@@ -55,7 +55,8 @@ class Session:
         mount: the mount of runs whose files name none, 'altaz' (default) or
             'equatorial'.
         azimuth: how the run files count azimuth ('N-E', 'S-E', 'S-W').
-        form: TPOINT term form, 'linear' (TPOINT's definitions) or 'rigorous'.
+        form: TPOINT term form, 'rigorous' (default: the model applied as TPOINT
+            applies it) or 'linear' (TPOINT's formulas as first-order offsets).
         residual_form: 'sky' (the model applied rigorously, as TPOINT's FIT) or
             'tpoint' (TPOINT's linearised residuals).
         run: the run read by INDAT (None before).
@@ -84,7 +85,7 @@ class Session:
     out: TextIO = dataclasses.field(default_factory=lambda: sys.stdout)
     mount: str = "altaz"
     azimuth: str = "N-E"
-    form: str = "linear"
+    form: str = "rigorous"
     residual_form: str = "sky"
     run: Any = None
     terms: list[str] = dataclasses.field(default_factory=list)

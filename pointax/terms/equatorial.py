@@ -276,6 +276,7 @@ class _EncoderTerm(Term):
     """``coef * (f_h, f_dec)(raw encoder)`` added to the encoder angles."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # 0 adds exactly nothing: carried switched off, never probed
 
     def encoder_basis(self, h, dec) -> tuple:
         raise NotImplementedError
@@ -337,6 +338,7 @@ class _RigorousCH(Term):
     ``CH`` (linear form ``dh = +CH sec dec``)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # the identity rotation at 0
 
     def boresight_rotation(self, angles):
         return rot_z(-self.coef)
@@ -347,6 +349,7 @@ class _RigorousNP(Term):
     form ``dh = +NP tan dec``)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # the identity rotation at 0
 
     def axes_rotation(self, angles):
         return rot_y(self.coef)
@@ -357,6 +360,7 @@ class _RigorousMA(Term):
     frame's y axis (linear form ``dh = -MA cos h tan dec``, ``ddec = +MA sin h``)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # the identity rotation at 0
 
     def base_rotation(self, angles):
         return rot_y(-self.coef)
@@ -367,6 +371,7 @@ class _RigorousME(Term):
     frame's x axis (West) (linear form ``dh = +ME sin h tan dec``, ``ddec = +ME cos h``)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # the identity rotation at 0
 
     def base_rotation(self, angles):
         return rot_x(self.coef)

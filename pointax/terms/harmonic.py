@@ -52,7 +52,7 @@ fit of a real alt-az run, where every coefficient came back within 0.4 sigma):
   ``dE = +coef f`` for ``E`` terms and ``dA cos E = -coef f`` for ``S`` terms.
 
 Hence TPOINT's identities ACEC = HACA1, ACES = HASA1, ECEC = HECE1, ECES = HESE1 with
-the centring terms of :mod:`pointax.terms.tpoint` (a test checks all four, in both
+the centring terms of :mod:`pointax.terms.tpoint_terms` (a test checks all four, in both
 forms).
 
 **Equatorial harmonic terms** (``mount="equatorial"``, for
@@ -334,6 +334,7 @@ class RigorousGeneratedTerm(Term):
     (axis-angle results) or a turn of the boresight (cross-axis results ``S``, ``X``)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True  # 0 adds exactly nothing: carried switched off, never probed
     label: str = eqx.field(static=True, default="HACA1")
     result: str = eqx.field(static=True, default="A")
     factors: tuple[tuple[str, str, int], ...] = eqx.field(static=True, default=(("C", "A", 1),))
@@ -399,11 +400,11 @@ class RigorousHarmonic(RigorousGeneratedTerm):
 
 
 def harmonic_term(
-    name: str, coef: float = 0.0, form: str = "linear", mount: str = "altaz"
+    name: str, coef: float = 0.0, form: str = "rigorous", mount: str = "altaz"
 ) -> Harmonic | RigorousHarmonic:
     """The harmonic term called ``name`` (e.g. ``"HACA2"``; ``"HHSH"`` with
-    ``mount="equatorial"``) with coefficient ``coef`` (radians), in TPOINT's
-    ``"linear"`` form or the ``"rigorous"`` form.
+    ``mount="equatorial"``) with coefficient ``coef`` (radians), in the
+    ``"rigorous"`` form (the default, as TPOINT applies it) or TPOINT's ``"linear"`` form.
 
     Raises:
         ValueError: for a name that is not a harmonic term of ``mount`` (the message

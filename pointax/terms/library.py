@@ -19,7 +19,7 @@ from .harmonic import (
 from .polynomial import Polynomial, RigorousPolynomial, is_polynomial_name, parse_polynomial, polynomial_term
 from ..core.units import check_pointing_term, is_quantity
 from .repertoire import not_yet_error, not_yet_reason
-from .tpoint import (
+from .tpoint_terms import (
     ACEC,
     ACES,
     AN,
@@ -44,7 +44,7 @@ harmonic_library = importlib.import_module(".harmonic", __package__)
 
 # The equatorial, gpoint, sun-vector, X-Y, camera and heliostat terms load on first use
 # (PEP 562): building the alt-az terms of a ``pointax fit`` does not create their
-# classes (about 70 ms of every such process). Name -> (module, attribute; None: the module).
+# classes, a noticeable part of every such process's start. Name -> (module, attribute; None: the module).
 _ON_FIRST_USE = {
     **{
         name: ("equatorial", name)
@@ -67,8 +67,8 @@ _ON_FIRST_USE = {
     "xy": ("xy", None),
     "camera": ("camera", None),
     "CameraMounting": ("camera", "CameraMounting"),
-    "heliostat_terms": ("heliostat", None),
-    "heliostat": ("heliostat", "heliostat"),
+    "heliostat_terms": ("heliostat_terms", None),
+    "heliostat": ("heliostat_terms", "heliostat"),
 }  # fmt: skip
 
 
@@ -106,6 +106,13 @@ class _Forms(Mapping):
 FORMS: Mapping[str, dict] = _Forms()
 """Term form name -> {TPOINT name: term class}."""
 
+DEFAULT_FORM = "rigorous"
+"""The term form used when none is named: the model applied as TPOINT applies it (exact
+rotations and encoder corrections), which reproduces TPOINT's fitted values on every
+real run with a TPOINT model file (``tests/test_conformance.py``; the figures are in
+``benchmarks/tpoint_conformance_notes.md``). ``form="linear"`` keeps TPOINT's formulas
+as first-order offsets at the sky position."""
+
 BASIC_ALTAZ = ("IA", "IE", "NPAE", "CA", "AN", "AW", "TF", "TX")
 """TPOINT's eight basic alt-az terms."""
 
@@ -123,7 +130,7 @@ MOUNTS = ("altaz", "equatorial")
 
 def tpoint(
     spec: str | Iterable[str] | None = None,
-    form: str = "linear",
+    form: str = DEFAULT_FORM,
     values: dict | None = None,
     mount: str = "altaz",
     latitude: float | None = None,
@@ -131,7 +138,7 @@ def tpoint(
     """TPOINT terms by name, e.g. ``tpoint("IA IE NPAE CA AN AW TF TX HACA2 HESE5")`` or
     ``tpoint("IH ID CH NP MA ME TF HHSH", mount="equatorial", latitude=px.deg(33.4))``.
 
-    Named terms are those of :mod:`pointax.terms.tpoint` and
+    Named terms are those of :mod:`pointax.terms.tpoint_terms` and
     :mod:`pointax.terms.tpoint_special` (alt-az) or :mod:`pointax.terms.equatorial` and
     :mod:`pointax.terms.equatorial_special`; other names starting with ``H`` are TPOINT's
     harmonic terms (:mod:`pointax.terms.harmonic`), with ``P`` its polynomial terms
@@ -142,12 +149,13 @@ def tpoint(
         spec: names separated by spaces or commas, or a sequence of names (default:
             TPOINT's basic terms of the mount, :data:`BASIC_ALTAZ` or
             :data:`BASIC_EQUATORIAL`).
-        form: 'linear' (TPOINT's formulas as first-order offsets at the sky
-            position, the default) or 'rigorous' (exact rotations and encoder
-            corrections, :mod:`pointax.terms.rigorous`,
-            :class:`pointax.terms.harmonic.RigorousHarmonic`: the model applied as
-            TPOINT applies it, nearer TPOINT's fitted values where corrections are
-            large). Terms with no rigorous form are the same in both.
+        form: 'rigorous' (the default, :data:`DEFAULT_FORM`: exact rotations and
+            encoder corrections, :mod:`pointax.terms.rigorous`,
+            :class:`pointax.terms.harmonic.RigorousHarmonic`, the model applied as
+            TPOINT applies it) or 'linear' (TPOINT's formulas as first-order offsets
+            at the sky position: the same to first order, off by up to 0.06" where
+            corrections reach tens of arcseconds). Terms with no rigorous form are
+            the same in both.
         values: optional starting values in radians, by (upper-case) name.
         mount: 'altaz' (default) or 'equatorial': the same name may mean different
             terms on the two (TF).
@@ -226,7 +234,7 @@ def gpoint_names(spec: str | Iterable[str], mount: str = "altaz") -> list[str]:
 
 def gpoint_terms(
     spec: str | Iterable[str],
-    form: str = "linear",
+    form: str = DEFAULT_FORM,
     values: dict | None = None,
     mount: str = "altaz",
     latitude: float | None = None,
@@ -251,7 +259,7 @@ def gpoint_terms(
 
     Args:
         spec: names separated by commas or spaces, or a sequence of names.
-        form: the form of the TPOINT terms ('linear' or 'rigorous'); gpoint's terms
+        form: the form of the TPOINT terms ('rigorous', the default, or 'linear'); gpoint's terms
             are always exactly gpoint's formulas.
         values: optional starting values in radians, by the names of
             :func:`gpoint_names`.

@@ -1,7 +1,7 @@
 """The base classes of TPOINT's terms in linear form (:class:`LinearTerm`,
 :class:`LatitudeTerm`), the error for TPOINT names pointax cannot build yet
 (:class:`NotYetInPointax`) and TPOINT's internal azimuth (:func:`tpoint_azimuth`).
-Re-exported by :mod:`pointax.terms.tpoint`; kept apart so that every module of terms
+Re-exported by :mod:`pointax.terms.tpoint_terms`; kept apart so that every module of terms
 can import them without importing the others."""
 
 from __future__ import annotations

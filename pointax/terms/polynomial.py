@@ -24,7 +24,7 @@ position, and the term adds ``coef`` times it with the signs of the harmonic ter
 
 **The azimuth of a polynomial** is TPOINT's internal one, ``A_T = 180 deg - A`` with
 ``A`` as the data count it, reduced to (-180, 180] deg
-(:func:`pointax.terms.tpoint.tpoint_azimuth`), as Wallace's ``tptPtpre`` computes it with
+(:func:`pointax.terms.tpoint_terms.tpoint_azimuth`), as Wallace's ``tptPtpre`` computes it with
 ``atan2``: unlike a harmonic, a polynomial notices the branch, and TPOINT's is this one.
 The hour angle is reduced to (-180, 180] deg likewise. On a German mount's flipped side
 TPOINT uses the mechanical hour angle ``h + 180 deg`` without reducing it, so a
@@ -194,9 +194,9 @@ class RigorousPolynomial(RigorousGeneratedTerm):
         return polynomial_function(self.factors, az, el)
 
 
-def polynomial_term(name: str, coef: float = 0.0, form: str = "linear", mount: str = "altaz"):
+def polynomial_term(name: str, coef: float = 0.0, form: str = "rigorous", mount: str = "altaz"):
     """The polynomial term called ``name`` with coefficient ``coef`` (radians), in the
-    ``"linear"`` or ``"rigorous"`` form.
+    ``"rigorous"`` (default) or ``"linear"`` form.
 
     Raises:
         ValueError: for a name that is not a polynomial term of ``mount``, an unknown

@@ -5,7 +5,7 @@ message says the term is TPOINT's but not yet in pointax) rather than as unknown
 Built (:func:`pointax.terms.tpoint`):
 
 * alt-az named terms: IA IE CA NPAE AN AW TF TX ACEC ACES ECEC ECES PAA1 PEE1
-  (:mod:`pointax.terms.tpoint`), NRX NRY CRX CRY FLOP TFP ANL AWL CAL NPAEL TXL
+  (:mod:`pointax.terms.tpoint_terms`), NRX NRY CRX CRY FLOP TFP ANL AWL CAL NPAEL TXL
   (:mod:`pointax.terms.tpoint_special`);
 * equatorial named terms: IH ID CH NP MA ME TF FO DAF HCES HCEC DCES DCEC
   (:mod:`pointax.terms.equatorial`), TX TFP FLOP DAB DNP HF HFX HFD X2HC HGES HGEC DGES
@@ -58,7 +58,7 @@ def not_yet_reason(name: str, mount: str) -> str | None:
     """Why ``name`` (upper-case), a TPOINT name, is not built for ``mount``; None when it
     is not such a name (unknown, or built)."""
     from . import equatorial
-    from .tpoint import LINEAR_TERMS
+    from .tpoint_terms import LINEAR_TERMS
 
     if name in NOT_YET:
         return NOT_YET[name]

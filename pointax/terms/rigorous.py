@@ -1,6 +1,6 @@
 """TPOINT's alt-az terms as exact rotations and encoder corrections.
 
-Same names, parameters and signs as :mod:`pointax.terms.tpoint`: to first order in the
+Same names, parameters and signs as :mod:`pointax.terms.tpoint_terms`: to first order in the
 coefficients each rigorous term equals its linear form (a test checks this), but the
 rigorous form is exact at any size and has no pole at the zenith. Where the linear form
 is already exact (elevation terms, azimuth zero point) the physical form is kept.
@@ -26,7 +26,7 @@ import jax.numpy as jnp
 from ..core.rotations import rot_x, rot_y, rot_z
 from ..core.term import Term, angle_pair, param
 from .linear import tpoint_azimuth
-from .tpoint import TF, TX
+from .tpoint_terms import TF, TX
 from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
 __all__ = [
@@ -48,10 +48,18 @@ __all__ = [
 ]
 
 
-class _EncoderTerm(Term):
-    """``coef * (f_A, f_E)(raw encoder)`` added to the encoder angles."""
+class _RigorousTerm(Term):
+    """A rigorous term of one coefficient: at 0 it adds a zero correction or turns by
+    the identity rotation, exactly, so a fit may carry it switched off for a model that
+    lacks it (:mod:`pointax.fitting.structure`) without probing it, and a change of
+    terms compiles nothing (the library's claims are checked by the tests)."""
 
     coef: float = param(0.0)
+    neutral_at_zero = True
+
+
+class _EncoderTerm(_RigorousTerm):
+    """``coef * (f_A, f_E)(raw encoder)`` added to the encoder angles."""
 
     def encoder_basis(self, az, el) -> tuple:
         raise NotImplementedError
@@ -117,43 +125,35 @@ class PEE1(_EncoderTerm):
         return 0.0, el
 
 
-class CA(Term):
+class CA(_RigorousTerm):
     """Collimation: the boresight turned by ``-CA`` towards increasing azimuth, about
     the tube's axis perpendicular to the elevation axis; a cross-elevation offset of
     exactly ``-CA`` at every elevation (linear form ``dA = -CA sec E``)."""
-
-    coef: float = param(0.0)
 
     def boresight_rotation(self, angles):
         return rot_z(self.coef)
 
 
-class NPAE(Term):
+class NPAE(_RigorousTerm):
     """Elevation axis tilted by ``-NPAE`` from perpendicular to the azimuth axis, a
     rotation about the horizontal axis perpendicular to the elevation axis (linear
     form ``dA = -NPAE tan E``)."""
-
-    coef: float = param(0.0)
 
     def axes_rotation(self, angles):
         return rot_y(-self.coef)
 
 
-class AN(Term):
+class AN(_RigorousTerm):
     """Azimuth axis tilted by AN towards azimuth 0, a rotation by ``-AN`` about the
     mount frame's x axis (linear form ``dA = -AN sin A tan E``, ``dE = -AN cos A``)."""
-
-    coef: float = param(0.0)
 
     def base_rotation(self, angles):
         return rot_x(-self.coef)
 
 
-class AW(Term):
+class AW(_RigorousTerm):
     """Azimuth axis tilted by AW towards azimuth 270 deg, a rotation by ``-AW`` about
     the mount frame's y axis (linear form ``dA = -AW cos A tan E``, ``dE = +AW sin A``)."""
-
-    coef: float = param(0.0)
 
     def base_rotation(self, angles):
         return rot_y(-self.coef)

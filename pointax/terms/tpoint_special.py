@@ -16,9 +16,9 @@ kind    what TPOINT changes (positive ...)                here (observed - raw)
 ``Z``   zenith distance on the sky (down)                 ``dE = -coef f``
 ======  ================================================  =================================
 
-with ``A_T = 180 deg - A`` (:func:`pointax.terms.tpoint.tpoint_azimuth`) inside ``f``.
+with ``A_T = 180 deg - A`` (:func:`pointax.terms.tpoint_terms.tpoint_azimuth`) inside ``f``.
 The same translation gives the checked IA, IE, CA, NPAE, AN, AW, TF, TX and the centring
-terms of :mod:`pointax.terms.tpoint` (a test checks all of them against it), so it is
+terms of :mod:`pointax.terms.tpoint_terms` (a test checks all of them against it), so it is
 the one used here. **None of the terms of this module has been checked against TPOINT
 output**: no public run with a published TPOINT fit holds them. Each is checked against
 Wallace's statement of it (``tests/test_tpoint_repertoire.py``), and NRX, NRY, CRX, CRY

@@ -102,8 +102,7 @@ the rotations follow). The paper does not say whether its functions take the rea
 or the star's position; the two differ at second order (``Delta`` times its slope,
 about (150")^2 / 1 rad = 0.1" for the paper's errors). TPOINT-style sky offsets,
 evaluated at the corrected position, would need the model's fixed-point iteration,
-which multiplies the compile time of a fit of 26 such terms (the Jacobian of the
-harmonic family's residuals compiled in 30 s with the iteration, 1.4 s without).
+which multiplies the compile time of a fit of 26 such terms many times over.
 """
 
 from __future__ import annotations
