@@ -191,9 +191,12 @@ def test_names_mix_gpoint_extras_and_tpoint():
     terms = gpoint_terms(spec, values={"ie": 2.0, "HACA2": 3.0, "az:sincos:az;el:2;2": 4.0})
     assert [term.name for term in terms] == names
     assert [float(term.coef) for term in terms] == [0.0, 2.0, 0.0, 0.0, 3.0, 4.0, 0.0]
-    assert isinstance(terms[0], px.terms.GpointTerm) and isinstance(terms[3], px.terms.IA)
-    assert isinstance(terms[4], px.terms.Harmonic) and isinstance(terms[5], px.terms.GpointExtra)
-    assert isinstance(gpoint_terms("CA", form="rigorous")[0], px.terms.rigorous.CA)
+    # TPOINT names take the default form (rigorous); gpoint's terms are gpoint's formulas in either.
+    assert isinstance(terms[0], px.terms.GpointTerm) and isinstance(terms[3], px.terms.rigorous.IA)
+    assert isinstance(terms[4], px.terms.RigorousHarmonic) and isinstance(terms[5], px.terms.GpointExtra)
+    linear = gpoint_terms("ia CA HACA2", form="linear")
+    assert isinstance(linear[0], px.terms.GpointTerm) and isinstance(linear[1], px.terms.CA)
+    assert isinstance(linear[2], px.terms.Harmonic)
     assert px.AltAz(terms, azimuth="S-W").parameter_names == names
     with pytest.raises(ValueError, match="unknown TPOINT term 'TN'"):
         gpoint_terms("TN")  # gpoint's names are lower-case; TN is no TPOINT name
@@ -692,9 +695,72 @@ def test_gem_radians_and_far_rows(tmp_path):
         read_gpoint(_write(tmp_path, rad, "rad.txt"))
     # a flip written in the Dec only: the real position is far from the mount's
     far = GEM_GOOD + ["2 2457000.5 280.0 270.0 160.0 -55000 55000 270.01 20.01"]
-    with pytest.warns(px.io.InputWarning, match=r"1 of 2 gem rows have their real position more than 10 deg"):
+    with pytest.warns(px.io.InputWarning, match=r"far\.txt:4: 1 of 2 rows have their real and mount positions .*more "
+                      r"than 5 deg apart .*line 4: \d+\.\d deg \(real RA 270\.01 Dec 20\.01, mount RA 270 Dec 160 deg\)"):
         run = read_gpoint(_write(tmp_path, far, "far.txt"))
     assert list(run.flipped) == [False, True]
+
+
+def _tampered(tmp_path, source: Path, line: int, field: int, value: str) -> Path:
+    """``source`` (a bundled gpoint run) with field ``field`` (0-based) of line ``line``
+    (1-based) replaced by ``value``."""
+    lines = source.read_text().splitlines()
+    tokens = lines[line - 1].split()
+    tokens[field] = value
+    lines[line - 1] = "\t".join(tokens)
+    return _write(tmp_path, lines, f"tampered_{source.name}")
+
+
+def _no_warnings(path):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return read_gpoint(path)
+
+
+def test_altaz_row_whose_real_and_mount_positions_contradict_is_named(tmp_path):
+    """An altaz-manual row whose elevation error reads 8 deg (a mistyped field): its real
+    position lies 8 deg from the mount's while the others agree to arcminutes. The
+    warning names the file, the line and both positions; the untouched run gets none."""
+    _no_warnings(SAMPLE)
+    path = _tampered(tmp_path, SAMPLE, 7, 4, "8.02062986")  # e_alt of row 5
+    with pytest.warns(px.io.InputWarning) as record:
+        run = read_gpoint(path)
+    (w,) = [w for w in record if "deg apart" in str(w.message)]
+    assert w.filename == __file__  # the user's line, not the reader's
+    message = str(w.message)
+    assert message.startswith(f"{path}:7: 1 of 36 rows have their real and mount positions more than 5 deg apart")
+    assert re.search(r"line 7: 8\.0 deg \(real az 19\.3742 el 54\.4187, mount az 19\.4151 el 46\.3981 deg\)", message)
+    assert len(run) == 36  # warned of, not dropped
+
+
+def test_altaz_9_field_row_with_swapped_real_position_is_named(tmp_path):
+    """An ``altaz`` (9-field) run whose real azimuth of one row is 40 deg off its mount's."""
+    rows = ["# created", "# altaz 15 50 600"]
+    for k in range(8):
+        az, el = 20.0 + 40.0 * k, 25.0 + 6.0 * k
+        real_az = az + 0.01 + (40.0 if k == 3 else 0.0)
+        rows.append(f"{k} 2457000.5 100.0 {az:.3f} {el:.3f} 1000 2000 {real_az:.3f} {el + 0.02:.3f}")
+    path = _write(tmp_path, rows, "altaz9.txt")
+    with pytest.warns(px.io.InputWarning, match=r"altaz9\.txt:6: 1 of 8 rows .* \(line 6: 29\.0 deg \(real az 180\.01 "
+                      r"el 43\.02, mount az 140 el 43 deg\)\)"):
+        read_gpoint(path)
+
+
+def test_gem_row_flipped_in_dec_only_is_named_with_both_positions(tmp_path):
+    """The bundled GEM run with one flipped row's mount Dec written as on the other side
+    of the pier (114.6649 -> 65.3351) but its RA left flipped: 49 deg off on the sky."""
+    gem = DATA / "gem.txt"
+    _no_warnings(gem)
+    path = _tampered(tmp_path, gem, 6, 4, "65.3351")
+    with pytest.warns(px.io.InputWarning) as record:
+        read_gpoint(path)
+    (w,) = [w for w in record if "deg apart" in str(w.message)]
+    assert w.filename == __file__
+    assert str(w.message).startswith(f"{path}:6: 1 of 60 rows have their real and mount positions")
+    assert re.search(r"line 6: 49\.\d deg \(real RA 326\.78 Dec 65\.3233, mount RA 146\.736 Dec 65\.3351 deg\)",
+                     str(w.message))
 
 
 def test_gem_man_page_example(tmp_path):

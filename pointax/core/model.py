@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import sys
 from collections.abc import Iterable, Sequence
 
 import equinox as eqx
@@ -22,6 +24,23 @@ RESIDUAL_FORMS = ("sky", "tpoint")
 """What a fit minimises (:attr:`Model.residual_form`)."""
 
 
+_INTERNAL_DIRS = tuple(
+    os.path.dirname(os.path.abspath(m.__file__)) + os.sep for m in (sys.modules[__name__.split(".")[0]], eqx, jax)
+)
+"""Frames in these packages are not the user's: equinox wraps a Module's methods (and jax
+its Partial), so a fixed ``stacklevel`` would point a warning into equinox."""
+
+
+def _user_stacklevel(base: int = 3) -> int:
+    """The ``stacklevel`` for a check called by a method (``base`` the one that names the
+    method's direct caller) that makes the warning name the first frame outside
+    pointax, equinox and jax: the user's line. The caller's if every frame is internal."""
+    frame, extra = sys._getframe(2), 0  # 0: this function, 1: the method, 2: its caller
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_INTERNAL_DIRS):
+        frame, extra = frame.f_back, extra + 1
+    return base if frame is None else base + extra
+
+
 def _in_unit(value, p: "ParameterInfo", unit):
     """``value`` (internal units) of parameter ``p`` in ``unit``: a unit name of
     :data:`pointax.core.units.UNITS` gives a float, an astropy unit a Quantity."""
@@ -31,7 +50,9 @@ def _in_unit(value, p: "ParameterInfo", unit):
         if (unit == "1") != (p.unit == "1"):
             raise ValueError(f"parameter {p.name} is in {p.unit}; it cannot be given in {unit}")
         return float(value) / UNITS[unit]
-    import astropy.units as u
+    u = sys.modules.get("astropy.units")  # an astropy unit was given: its package is loaded
+    if u is None or not isinstance(unit, u.UnitBase):
+        raise ValueError(f"unit must be one of {sorted(UNITS)} or an astropy unit, got {unit!r}")
 
     internal = u.dimensionless_unscaled if p.unit == "1" else u.rad
     try:
@@ -222,14 +243,15 @@ class Model(eqx.Module):
             value_in_unit(v, "1" if info[n].unit == "1" else "rad", f"parameter {n}") if is_quantity(v) else v
             for n, v in values.items()
         ]
+        level = _user_stacklevel()  # a warning names the user's line, not equinox's method wrapper
         for (n, v), given in zip(values.items(), converted):
             if info[n].unit != "1" and not is_quantity(v):  # a bare number: radians assumed, so checked
                 if info[n].unit == "arcsec":  # a pointing term's coefficient: refused beyond a turn
-                    check_pointing_term(given, n)
+                    check_pointing_term(given, n, stacklevel=level)
                 elif info[n].period is not None:  # an angle modulo a turn (alpha0): refused beyond one
-                    check_angle_radians(given, n)
+                    check_angle_radians(given, n, stacklevel=level)
                 else:  # another angle: named beyond a turn
-                    check_angle_radians(given, n, limit=math.inf, warn_above=TURN)
+                    check_angle_radians(given, n, limit=math.inf, warn_above=TURN, stacklevel=level)
         return self.replace_parameters([info[n] for n in values], converted)
 
     def restructured(self, terms: Iterable[Term] | None = None, fixed: Iterable[str] | None = None) -> "Model":
@@ -295,8 +317,7 @@ class Model(eqx.Module):
     def sky_position(self, chain_angles: Float[Array, "*batch 2"]) -> Float[Array, "*batch 2"]:
         """Solve ``sky = chain_angles + sum(term.sky_offset(sky))`` by fixed-point
         iteration (``sky_iterations`` of them). A loop, not unrolled: unrolled, the
-        iterations of a many-term model multiplied its compilation time (30 s against
-        5 s for 26 terms)."""
+        iterations of a many-term model multiply its compilation time."""
         if chain_angles.ndim == 1:
             offset = self.sky_offset
         else:

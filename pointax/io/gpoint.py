@@ -69,8 +69,9 @@ Where pointax is stricter than gpoint (gpoint would crash, misread or silently d
   (``180 - dec`` on the flipped side of a northern mount reaches 270 deg),
   the real Dec within +-90 deg, LST and RAs within +-360 deg, and the real position above
   the horizon at the header's latitude (an LST in hours, or a wrong latitude, puts it
-  below); a real position more than 10 deg from the mount's gives a warning (a pier
-  flip written on one of them only?);
+  below); a real position more than 5 deg from the mount's, beyond the run's common
+  offset, gives a warning naming the line and both positions (a pier flip written on one
+  of them only? a mistyped field?), in every format, as for TPOINT runs;
 * blank lines are skipped (gpoint would stop with an unpacking error).
 
 Every error is a :class:`GpointFormatError` naming the file, line and field.
@@ -89,7 +90,7 @@ from ..core.mounts import AZIMUTH_CONVENTIONS
 from ..core.observations import Observations
 from ..core.rotations import azel_to_enu_numpy, hadec_to_enu_numpy
 from ..core.units import DEG
-from .errors import file_errors, warn_input
+from .errors import file_errors
 from .gpoint_conventions import GPOINT_AZIMUTH, GpointFormatError
 from .gpoint_model import (  # the model files' names: importable from here, as before the split
     GpointModelFile,
@@ -99,9 +100,11 @@ from .gpoint_model import (  # the model files' names: importable from here, as 
     write_gpoint_model,
 )
 from .sanity import (
+    ROW_SEPARATION_DEG,
     check_azimuth,
     check_not_radians,
     check_observed_elevation,
+    check_row_separations,
     finite_number,
     warn_duplicates,
 )
@@ -122,8 +125,10 @@ __all__ = [
     "FAR_DEG",
 ]
 
-FAR_DEG = 10.0
-"""A GEM row whose real position lies farther than this from the mount's (deg) gives a warning."""
+FAR_DEG = ROW_SEPARATION_DEG
+"""A row whose real position lies farther than this (deg) from the mount's, beyond the run's
+common offset, gives a warning naming its line and both positions (the same check and
+limit as TPOINT runs': :data:`pointax.io.sanity.ROW_SEPARATION_DEG`)."""
 
 _GEM_FIELDS = (
     "observation id",
@@ -356,6 +361,20 @@ def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:
     warn_duplicates(path, v, line_numbers, f"{record}s")
     encoder = encoder_deg * DEG
     observed = observed_deg * DEG
+    over = encoder[:, 1] > math.pi / 2  # over the top: the reading points at az + 180, 180 - el
+    sky_raw = np.stack([encoder[:, 0] + np.where(over, math.pi, 0.0), np.where(over, math.pi - encoder[:, 1], encoder[:, 1])], -1)
+    check_row_separations(
+        path,
+        line_numbers,
+        observed,
+        sky_raw,
+        "their real and mount positions",
+        describe=lambda k: (
+            f"real az {observed_deg[k, 0]:g} el {observed_deg[k, 1]:g}, "
+            f"mount az {encoder_deg[k, 0]:g} el {encoder_deg[k, 1]:g} deg"
+        ),
+        stacklevel=6,  # the caller of read_gpoint
+    )
     frame = np.asarray(AZIMUTH_CONVENTIONS[GPOINT_AZIMUTH])
     target = azel_to_enu_numpy(observed[:, 0], observed[:, 1]) @ frame.T
     return GpointRun(
@@ -421,19 +440,17 @@ def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
     flip_dec = np.where(a_dec > 90.0, 180.0 - r_dec, np.where(a_dec < -90.0, -180.0 - r_dec, r_dec))
     encoder = np.stack([lst - a_ra, a_dec], axis=-1) * DEG
     observed = np.stack([lst - flip_ra, flip_dec], axis=-1) * DEG
-    raw = hadec_to_enu_numpy(encoder[:, 0], encoder[:, 1], lat)
-    far = np.degrees(np.arccos(np.clip(np.sum(raw * target, axis=-1), -1.0, 1.0)))
-    bad = [(int(line_numbers[k]), float(far[k])) for k in np.flatnonzero(far > FAR_DEG)]
-    if bad:
-        shown = ", ".join(f"line {ln}: {d:.1f} deg" for ln, d in bad[:5]) + (", ..." if len(bad) > 5 else "")
-        warn_input(
-            path,
-            bad[0][0],
-            f"{len(bad)} of {len(line_numbers)} {record}s have their real position more than {FAR_DEG:g} deg from "
-            f"the mount's ({shown}): a pier flip written in the mount's RA/Dec (fields 4-5) but not both, or the "
-            "wrong row order?",
-            stacklevel=4,
-        )
+    # The mount's reading brought back to the sky (H - 180 deg, +-180 deg - Dec on the flipped side).
+    sky_raw = np.stack([lst - a_ra - np.where(flipped, 180.0, 0.0), np.where(flipped, np.sign(a_dec) * 180.0 - a_dec, a_dec)], -1)
+    check_row_separations(
+        path,
+        line_numbers,
+        np.stack([real_ha, real_dec], -1),
+        sky_raw * DEG,
+        "their real and mount positions (fields 8-9 and 4-5, pier side as the mount's Dec says)",
+        describe=lambda k: f"real RA {r_ra[k]:g} Dec {r_dec[k]:g}, mount RA {a_ra[k]:g} Dec {a_dec[k]:g} deg",
+        stacklevel=7,  # the caller of read_gpoint
+    )
     warn_duplicates(path, v, line_numbers, f"{record}s")
     return GpointRun(
         **common,

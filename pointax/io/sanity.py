@@ -29,6 +29,7 @@ __all__ = [
     "warn_duplicates",
     "warn_after_end",
     "check_offsets_scale",
+    "row_separations",
     "check_row_separations",
 ]
 
@@ -164,14 +165,13 @@ error differs that much from one row to the next (a row flipped in declination b
 in hour angle, a typo in a field)."""
 
 
-def check_row_separations(path, lines: Sequence[int], observed: np.ndarray, raw: np.ndarray, what: str) -> None:
-    """Warn of the rows whose raw position (``raw``: longitude, latitude radians, e.g.
-    azimuth and elevation, or hour angle and declination on the sky, after any pier
-    flip) lies more than :data:`ROW_SEPARATION_DEG` from the observed one, once the
-    median differences of the run are taken out; each named by its line."""
+def row_separations(observed: np.ndarray, raw: np.ndarray) -> np.ndarray:
+    """``(n,)`` degrees between each row's observed position and its raw one (both
+    ``(n, 2)`` longitude, latitude radians) once the median differences of the run (its
+    common offset, from 3 rows on) are taken out of the raw positions."""
     observed, raw = np.asarray(observed, np.float64), np.asarray(raw, np.float64)
     if observed.shape[0] == 0:
-        return
+        return np.zeros(0)
     d_lon = (raw[:, 0] - observed[:, 0] + math.pi) % (2 * math.pi) - math.pi
     d_lat = raw[:, 1] - observed[:, 1]
     lon = observed[:, 0] + d_lon - (np.median(d_lon) if len(d_lon) >= 3 else 0.0)
@@ -181,16 +181,30 @@ def check_row_separations(path, lines: Sequence[int], observed: np.ndarray, raw:
         return np.stack([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)], axis=-1)
 
     cosine = np.clip(np.sum(vectors(lon, lat) * vectors(observed[:, 0], observed[:, 1]), axis=1), -1.0, 1.0)
-    apart = np.degrees(np.arccos(cosine))
+    return np.degrees(np.arccos(cosine))
+
+
+def check_row_separations(
+    path, lines: Sequence[int], observed: np.ndarray, raw: np.ndarray, what: str, describe=None, stacklevel: int = 5
+) -> None:
+    """Warn of the rows whose raw position (``raw``: longitude, latitude radians, e.g.
+    azimuth and elevation, or hour angle and declination on the sky, after any pier
+    flip) lies more than :data:`ROW_SEPARATION_DEG` from the observed one, once the
+    median differences of the run are taken out (:func:`row_separations`); each named
+    by its line and, where ``describe(k)`` is given, both its positions as written."""
+    apart = row_separations(observed, raw)
     far = np.flatnonzero(apart > ROW_SEPARATION_DEG)
     if far.size == 0:
         return
-    shown = ", ".join(f"line {int(lines[k])}: {apart[k]:.1f} deg" for k in far[:5]) + (", ..." if far.size > 5 else "")
+    shown = ", ".join(
+        f"line {int(lines[k])}: {apart[k]:.1f} deg" + (f" ({describe(int(k))})" if describe is not None else "")
+        for k in far[:5]
+    ) + (", ..." if far.size > 5 else "")
     warn_input(
         path,
         int(lines[far[0]]),
         f"{far.size} of {len(apart)} rows have {what} more than {ROW_SEPARATION_DEG:g} deg apart beyond the run's "
         f"common offset ({shown}): a row flipped in declination but not in hour angle (or the reverse), or a "
         "mistyped field? Such a row is fitted as it stands; correct it or mask it",
-        stacklevel=5,
+        stacklevel=stacklevel,
     )

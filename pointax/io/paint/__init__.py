@@ -33,7 +33,13 @@ Conventions of the files, converted here where data enters pointax:
 
 Every malformed file raises :class:`PaintFormatError`, whose message names the file,
 the field as a JSON path (``kinematics_properties.actuators[1].increment``) and the
-line of that field (or, for a missing field, of the object that lacks it).
+line of that field (or, for a missing field, of the object that lacks it). Any other
+error raised while a file is read (an unexpected ``TypeError``, ...) leaves the reader
+as a :class:`PaintFormatError` too, naming the file and the field last read
+(:meth:`JsonDocument.named_errors <pointax.io.paint.document.JsonDocument.named_errors>`;
+:func:`read_paint`: the folder, :func:`pointax.io.errors.file_errors`). A sample whose
+measured normal contradicts its motor positions is named in a warning
+(:func:`read_paint`).
 
 This is an edge module: numpy and astropy only, no JAX. One module per job:
 :mod:`~pointax.io.paint.document` (file names, errors, JSON access),
@@ -67,9 +73,10 @@ from .files import (
     read_tower,
 )
 from .geometry import paint_azimuth_to_north_east, sun_enu_from_paint, wgs84_to_enu
-from .run import PaintRun, mirror_centre, read_paint
+from .run import AIM_SEPARATION_DEG, PaintRun, mirror_centre, nominal_normal, read_paint
 
 __all__ = [
+    "AIM_SEPARATION_DEG",
     "FOCAL_SPOT_METHODS",
     "IDEAL_LAW",
     "CalibrationSample",
@@ -82,6 +89,7 @@ __all__ = [
     "TargetPlane",
     "Tower",
     "mirror_centre",
+    "nominal_normal",
     "paint_azimuth_to_north_east",
     "read_calibration",
     "read_heliostat",

@@ -4,16 +4,18 @@ parsed JSON file that names the field and line of a bad value. See :mod:`pointax
 from __future__ import annotations
 
 import bisect
+import contextlib
 import json
 import math
 import os
 import re
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
 
-from ..errors import FileFormatError
+from ..errors import FileFormatError, unnamed_error_message
 
 __all__ = [
     "FOCAL_SPOT_METHODS",
@@ -65,6 +67,12 @@ class PaintFormatError(FileFormatError):
     def __init__(self, path: str, field: str | None, message: str, line: int | None = None):
         self.field, self.message = field, message
         super().__init__(path, line, message, f"field {field}" if field else None)
+
+    @classmethod
+    def in_file(cls, path: str, line: int | None, message: str) -> "PaintFormatError":
+        """The error for ``path`` (and ``line``) with no field: the factory
+        :func:`pointax.io.errors.file_errors` builds the PAINT readers' errors with."""
+        return cls(path, None, message, line)
 
 
 # --------------------------------------------------------------------------- JSON access
@@ -150,6 +158,7 @@ class JsonDocument:
 
     def __init__(self, path: str | os.PathLike):
         self.path = os.fspath(path)
+        self.field = ""  # the JSON path last asked for: the field an unexpected error is named with
         try:
             data = Path(self.path).read_bytes()
             self.text = data.decode("utf-8-sig")
@@ -179,6 +188,8 @@ class JsonDocument:
             ) from None
         except RecursionError:
             raise PaintFormatError(self.path, None, "JSON nested too deeply to read") from None
+        except ValueError as err:  # e.g. an integer of more digits than Python converts
+            raise PaintFormatError(self.path, None, f"unreadable JSON: {err}") from None
         self._lines: dict[str, int] | None = None
 
     def line_of(self, field: str) -> int | None:
@@ -197,6 +208,23 @@ class JsonDocument:
     def fail(self, field: str, message: str) -> NoReturn:
         raise PaintFormatError(self.path, field, message, self.line_of(field))
 
+    @contextlib.contextmanager
+    def named_errors(self) -> Iterator["JsonDocument"]:
+        """Within it, an error that does not name this file
+        (:func:`pointax.io.errors.unnamed_error_message`: a ``TypeError``, an
+        ``OverflowError``, ...) is raised again as a :class:`PaintFormatError` naming the
+        file and the field last read (:attr:`field`) and its line."""
+        try:
+            yield self
+        except Exception as err:
+            message = unnamed_error_message(err)
+            if message is None:
+                raise
+            field = self.field or None
+            raise PaintFormatError(
+                self.path, field, f"{message} (while reading this field)" if field else message, self.line_of(self.field)
+            ) from err
+
     @staticmethod
     def join(prefix: str, key: str | int) -> str:
         if isinstance(key, int):
@@ -204,22 +232,29 @@ class JsonDocument:
         return f"{prefix}.{key}" if prefix else key
 
     def obj(self, value: Any, field: str) -> dict:
+        self.field = field
         if not isinstance(value, dict):
             self.fail(field, f"is {describe_value(value)}, expected a JSON object")
         return value
 
     def get(self, parent: dict, key: str, prefix: str = "") -> tuple[Any, str]:
-        field = self.join(prefix, key)
+        field = self.field = self.join(prefix, key)
         if key not in parent:
             self.fail(field, "is missing")
         return parent[key], field
 
     def as_number(self, value: Any, field: str) -> float:
+        self.field = field
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(field, f"is {describe_value(value)}, expected a number")
-        if not math.isfinite(value):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer of hundreds of digits
+            digits = int(value.bit_length() * math.log10(2)) + 1
+            self.fail(field, f"is an integer of about {digits} digits, beyond a float's range")
+        if not math.isfinite(number):
             self.fail(field, f"is {value}, expected a finite number")
-        return float(value)
+        return number
 
     def number(self, parent: dict, key: str, prefix: str = "", *, positive: bool = False) -> float:
         value, field = self.get(parent, key, prefix)
@@ -235,6 +270,7 @@ class JsonDocument:
         return value
 
     def as_vector(self, value: Any, field: str, n: int = 3) -> np.ndarray:
+        self.field = field
         if not isinstance(value, list) or len(value) != n:
             self.fail(field, f"is {describe_value(value)}, expected an array of {n} numbers")
         return frozen_array(np.array([self.as_number(v, self.join(field, k)) for k, v in enumerate(value)]))

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import file_errors
 from .document import (
     CALIBRATION_SUFFIX,
     FOCAL_SPOT_METHODS,
@@ -218,6 +219,7 @@ def _re_half_pi(v: np.ndarray) -> np.ndarray:
     return np.array([v[0], -v[2], v[1]], np.float64)
 
 
+@file_errors(PaintFormatError.in_file)
 def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
     """Read a PAINT ``heliostat-properties.json``, in either layout.
 
@@ -249,40 +251,41 @@ def read_heliostat(path: str | os.PathLike) -> HeliostatProperties:
         PaintFormatError: naming file, field and line of the first bad field.
     """
     doc = JsonDocument(path)
-    root = doc.obj(doc.data, "")
-    value, field = doc.get(root, "heliostat_position")
-    position = doc.geodetic(value, field)
-    width = doc.number(root, "width", positive=True)
-    height = doc.number(root, "height", positive=True)
-    layout = _layout(doc, root)
-    written = doc.vector(root, "initial_orientation")
-    if not np.linalg.norm(written) > 0:
-        doc.fail("initial_orientation", "is the zero vector")
-    orientation = frozen_array(_re_half_pi(written)) if layout == LAYOUT_SCHEMA1 else written
-    value, kin_field = doc.get(root, KINEMATICS_KEYS[layout])
-    kin = doc.obj(value, kin_field)
-    value, field = doc.get(kin, "actuators", kin_field)
-    if not isinstance(value, list) or len(value) != 2:
-        doc.fail(field, f"is {describe_value(value)}, expected an array of exactly 2 actuators (axis 1, axis 2)")
-    actuators = tuple(_actuator(doc, a, doc.join(field, k), layout) for k, a in enumerate(value))
-    joints = frozen_array(
-        [[doc.number(kin, f"joint_translation_{c}_{j}", kin_field) for c in "enu"] for j in (1, 2)]
-    )
-    concentrator = frozen_array([doc.number(kin, f"concentrator_translation_{c}", kin_field) for c in "enu"])
-    renovation = doc.string(root, "renovation") if "renovation" in root else None
-    return HeliostatProperties(
-        path=doc.path,
-        position=position,
-        width=width,
-        height=height,
-        initial_orientation=orientation,
-        actuators=actuators,
-        joint_translations=joints,
-        concentrator_translation=concentrator,
-        renovation=renovation,
-        layout=layout,
-        file_orientation=written,
-    )
+    with doc.named_errors():
+        root = doc.obj(doc.data, "")
+        value, field = doc.get(root, "heliostat_position")
+        position = doc.geodetic(value, field)
+        width = doc.number(root, "width", positive=True)
+        height = doc.number(root, "height", positive=True)
+        layout = _layout(doc, root)
+        written = doc.vector(root, "initial_orientation")
+        if not np.linalg.norm(written) > 0:
+            doc.fail("initial_orientation", "is the zero vector")
+        orientation = frozen_array(_re_half_pi(written)) if layout == LAYOUT_SCHEMA1 else written
+        value, kin_field = doc.get(root, KINEMATICS_KEYS[layout])
+        kin = doc.obj(value, kin_field)
+        value, field = doc.get(kin, "actuators", kin_field)
+        if not isinstance(value, list) or len(value) != 2:
+            doc.fail(field, f"is {describe_value(value)}, expected an array of exactly 2 actuators (axis 1, axis 2)")
+        actuators = tuple(_actuator(doc, a, doc.join(field, k), layout) for k, a in enumerate(value))
+        joints = frozen_array(
+            [[doc.number(kin, f"joint_translation_{c}_{j}", kin_field) for c in "enu"] for j in (1, 2)]
+        )
+        concentrator = frozen_array([doc.number(kin, f"concentrator_translation_{c}", kin_field) for c in "enu"])
+        renovation = doc.string(root, "renovation") if "renovation" in root else None
+        return HeliostatProperties(
+            path=doc.path,
+            position=position,
+            width=width,
+            height=height,
+            initial_orientation=orientation,
+            actuators=actuators,
+            joint_translations=joints,
+            concentrator_translation=concentrator,
+            renovation=renovation,
+            layout=layout,
+            file_orientation=written,
+        )
 
 
 def _layout(doc: JsonDocument, root: dict) -> str:
@@ -333,6 +336,7 @@ class CalibrationSample:
         return sun_enu_from_paint(self.sun_azimuth_deg, self.sun_elevation_deg)
 
 
+@file_errors(PaintFormatError.in_file)
 def read_calibration(path: str | os.PathLike) -> CalibrationSample:
     """Read one PAINT ``<id>-calibration-properties.json``.
 
@@ -344,31 +348,32 @@ def read_calibration(path: str | os.PathLike) -> CalibrationSample:
         PaintFormatError: naming file, field and line of the first bad field.
     """
     doc = JsonDocument(path)
-    name = Path(doc.path).name
-    sample_id = name[: -len(CALIBRATION_SUFFIX)] if name.endswith(CALIBRATION_SUFFIX) else Path(doc.path).stem
-    root = doc.obj(doc.data, "")
-    value, mp_field = doc.get(root, "motor_position")
-    mp = doc.obj(value, mp_field)
-    motor = frozen_array([doc.number(mp, f"axis_{k}_motor_position", mp_field) for k in (1, 2)])
-    azimuth = doc.number(root, "sun_azimuth")
-    elevation = doc.number(root, "sun_elevation")
-    if not -90.0 <= elevation <= 90.0:
-        doc.fail("sun_elevation", f"is {elevation}, outside -90..90 deg")
-    value, fs_field = doc.get(root, "focal_spot")
-    spots = doc.obj(value, fs_field)
-    focal_spot = {k: doc.geodetic(v, doc.join(fs_field, k)) for k, v in spots.items() if v is not None}
-    if not any(m in focal_spot for m in FOCAL_SPOT_METHODS):
-        doc.fail(fs_field, f"has none of the methods {', '.join(FOCAL_SPOT_METHODS)}")
-    target = doc.string(root, "target_name")
-    return CalibrationSample(
-        path=doc.path,
-        sample_id=sample_id,
-        motor=motor,
-        sun_azimuth_deg=azimuth,
-        sun_elevation_deg=elevation,
-        focal_spot=focal_spot,
-        target_name=target,
-    )
+    with doc.named_errors():
+        name = Path(doc.path).name
+        sample_id = name[: -len(CALIBRATION_SUFFIX)] if name.endswith(CALIBRATION_SUFFIX) else Path(doc.path).stem
+        root = doc.obj(doc.data, "")
+        value, mp_field = doc.get(root, "motor_position")
+        mp = doc.obj(value, mp_field)
+        motor = frozen_array([doc.number(mp, f"axis_{k}_motor_position", mp_field) for k in (1, 2)])
+        azimuth = doc.number(root, "sun_azimuth")
+        elevation = doc.number(root, "sun_elevation")
+        if not -90.0 <= elevation <= 90.0:
+            doc.fail("sun_elevation", f"is {elevation}, outside -90..90 deg")
+        value, fs_field = doc.get(root, "focal_spot")
+        spots = doc.obj(value, fs_field)
+        focal_spot = {k: doc.geodetic(v, doc.join(fs_field, k)) for k, v in spots.items() if v is not None}
+        if not any(m in focal_spot for m in FOCAL_SPOT_METHODS):
+            doc.fail(fs_field, f"has none of the methods {', '.join(FOCAL_SPOT_METHODS)}")
+        target = doc.string(root, "target_name")
+        return CalibrationSample(
+            path=doc.path,
+            sample_id=sample_id,
+            motor=motor,
+            sun_azimuth_deg=azimuth,
+            sun_elevation_deg=elevation,
+            focal_spot=focal_spot,
+            target_name=target,
+        )
 
 
 # --------------------------------------------------------------------------- tower
@@ -413,6 +418,7 @@ class Tower(Mapping):
         return len(self.targets)
 
 
+@file_errors(PaintFormatError.in_file)
 def read_tower(path: str | os.PathLike) -> Tower:
     """Read a PAINT ``tower-measurements.json``.
 
@@ -428,29 +434,30 @@ def read_tower(path: str | os.PathLike) -> Tower:
         PaintFormatError: naming file, field and line of the first bad field.
     """
     doc = JsonDocument(path)
-    root = doc.obj(doc.data, "")
-    value, pp_field = doc.get(root, POWER_PLANT_KEY)
-    pp = doc.obj(value, pp_field)
-    plant_id = doc.string(pp, "ID", pp_field)
-    value, field = doc.get(pp, "coordinates", pp_field)
-    plant_position = doc.geodetic(value, field)
-    targets = {}
-    for name, value in root.items():
-        if name == POWER_PLANT_KEY:
-            continue
-        t = doc.obj(value, name)
-        kind = doc.string(t, "type", name)
-        normal = doc.vector(t, "normal_vector", name)
-        if not np.linalg.norm(normal) > 0:
-            doc.fail(doc.join(name, "normal_vector"), "is the zero vector")
-        value, c_field = doc.get(t, "coordinates", name)
-        coords = doc.obj(value, c_field)
-        center, field = doc.get(coords, "center", c_field)
-        center = doc.geodetic(center, field)
-        corners = {k: doc.geodetic(v, doc.join(c_field, k)) for k, v in coords.items() if k != "center"}
-        extra = {k: v for k, v in t.items() if k not in ("type", "normal_vector", "coordinates")}
-        targets[name] = TargetPlane(name, kind, center, corners, normal, extra)
-    if not targets:
-        raise PaintFormatError(doc.path, None, "no target areas (only power_plant_properties)")
-    return Tower(doc.path, plant_id, plant_position, targets)
+    with doc.named_errors():
+        root = doc.obj(doc.data, "")
+        value, pp_field = doc.get(root, POWER_PLANT_KEY)
+        pp = doc.obj(value, pp_field)
+        plant_id = doc.string(pp, "ID", pp_field)
+        value, field = doc.get(pp, "coordinates", pp_field)
+        plant_position = doc.geodetic(value, field)
+        targets = {}
+        for name, value in root.items():
+            if name == POWER_PLANT_KEY:
+                continue
+            t = doc.obj(value, name)
+            kind = doc.string(t, "type", name)
+            normal = doc.vector(t, "normal_vector", name)
+            if not np.linalg.norm(normal) > 0:
+                doc.fail(doc.join(name, "normal_vector"), "is the zero vector")
+            value, c_field = doc.get(t, "coordinates", name)
+            coords = doc.obj(value, c_field)
+            center, field = doc.get(coords, "center", c_field)
+            center = doc.geodetic(center, field)
+            corners = {k: doc.geodetic(v, doc.join(c_field, k)) for k, v in coords.items() if k != "center"}
+            extra = {k: v for k, v in t.items() if k not in ("type", "normal_vector", "coordinates")}
+            targets[name] = TargetPlane(name, kind, center, corners, normal, extra)
+        if not targets:
+            raise PaintFormatError(doc.path, None, "no target areas (only power_plant_properties)")
+        return Tower(doc.path, plant_id, plant_position, targets)
 

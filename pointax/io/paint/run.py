@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ...core.observations import Observations
+from ..errors import file_errors, warn_input
+from ..sanity import row_separations
 from .document import (
     CALIBRATION_SUFFIX,
     FOCAL_SPOT_METHODS,
@@ -32,8 +34,17 @@ from .geometry import sun_enu_from_paint, wgs84_to_enu
 __all__ = [
     "PaintRun",
     "mirror_centre",
+    "nominal_normal",
     "read_paint",
+    "AIM_SEPARATION_DEG",
 ]
+
+AIM_SEPARATION_DEG = 10.0
+"""A sample whose measured mirror normal lies more than this (degrees) from the nominal
+normal of its motor positions, beyond the run's common offset, is named. Twice the 5 deg
+of TPOINT and gpoint rows: a heliostat's nominal kinematics is coarser than a
+telescope's encoders (AA39's real samples reach 4.9 deg), while a sun position of another
+time or a mistyped motor position moves the normal by tens of degrees."""
 
 # --------------------------------------------------------------------------- a whole folder
 
@@ -118,6 +129,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+@file_errors(PaintFormatError.in_file)
 def read_paint(
     directory: str | os.PathLike,
     focal_spot: str = "HeliOS",
@@ -152,6 +164,14 @@ def read_paint(
 
     Both layouts of ``heliostat-properties.json`` are read (:func:`read_heliostat`);
     ``PaintRun.layout`` says which.
+
+    A sample whose measured normal (from its sun position and focal spot) lies more
+    than 10 deg (:data:`AIM_SEPARATION_DEG`) from the normal its motor
+    positions give through the file's nominal kinematics (:func:`nominal_normal`), once
+    the run's common offset is taken out, gives an :class:`~pointax.io.InputWarning`
+    naming its file and both normals: its sun position, focal spot and motor positions
+    contradict each other (a sun position of another time, a mistyped field). On AA39
+    the samples lie 0.1-4.9 deg from the nominal normals (two above 4 deg).
 
     Raises:
         FileNotFoundError: the folder, ``heliostat-properties.json`` or the tower file
@@ -191,6 +211,7 @@ def read_paint(
     sun = sun_enu_from_paint([s.sun_azimuth_deg for s in samples], [s.sun_elevation_deg for s in samples])
 
     normal = _bisector(samples, sun, focal_enu)
+    _check_aims(samples, heliostat, motor, normal)
     centre = np.zeros_like(focal_enu)
     if mirror_offset:
         # The centre moves by ~0.2 m with the normal's ~1e-3 change: 6 steps converge to 1e-12.
@@ -225,6 +246,63 @@ def _check_motor_range(sample, heliostat: HeliostatProperties) -> None:
                 f"{'rad, an ideal actuator' if actuator.ideal else 'increments'} in {Path(heliostat.path).name}); "
                 "remove the sample or correct the file",
             )
+
+
+def nominal_normal(heliostat: HeliostatProperties, motor: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` the mirror normals (ENU) that motor positions ``motor`` (``(n, 2)``)
+    give through the nominal kinematics of ``heliostat``, no error terms: each actuator's
+    law (:class:`LinearActuator`, ideal or linear) turns its motor position into a joint
+    angle, and ``n = Re(theta1 - pi/2) Ru(theta2) initial_orientation`` (DESIGN's chain,
+    :class:`pointax.HeliostatMount`'s forward model in numpy)."""
+    motor = np.asarray(motor, np.float64).reshape(-1, 2)
+    angles = []
+    for k, a in enumerate(heliostat.actuators):
+        if a.ideal:
+            angles.append(motor[:, k])
+            continue
+        offset, radius = a.offset + a.offset_shift, a.pivot_radius + a.radius_shift
+
+        def phi(stroke):
+            return np.arccos(np.clip((offset**2 + radius**2 - stroke**2) / (2 * offset * radius), -1.0, 1.0))
+
+        s0 = a.initial_stroke_length
+        sign = 1.0 if a.clockwise else -1.0
+        angles.append(a.initial_angle + sign * (phi(s0) - phi(motor[:, k] / a.increment + s0)))
+    r1, r2 = _rot_e(angles[0] - np.pi / 2), _rot_u(angles[1])
+    return np.einsum("nij,njk,k->ni", r1, r2, np.asarray(heliostat.initial_orientation, np.float64))
+
+
+def _azimuth_elevation(v: np.ndarray) -> np.ndarray:
+    """``(n, 2)`` azimuth (North through East) and elevation, radians, of ENU vectors."""
+    return np.stack([np.arctan2(v[:, 0], v[:, 1]), np.arcsin(np.clip(v[:, 2], -1.0, 1.0))], -1)
+
+
+def _check_aims(samples, heliostat: HeliostatProperties, motor: np.ndarray, measured: np.ndarray) -> None:
+    """Warn of the samples whose measured normal lies more than :data:`AIM_SEPARATION_DEG`
+    from the nominal normal of their motor positions beyond the run's common offset (the
+    check TPOINT and gpoint runs get, :func:`pointax.io.sanity.row_separations`), naming
+    each sample's file and both normals."""
+    observed, nominal = _azimuth_elevation(measured), _azimuth_elevation(nominal_normal(heliostat, motor))
+    apart = row_separations(observed, nominal)
+    far = np.flatnonzero(apart > AIM_SEPARATION_DEG)
+    if far.size == 0:
+        return
+    a, b = np.degrees(observed), np.degrees(nominal)
+    shown = ", ".join(
+        f"{Path(samples[k].path).name}: {apart[k]:.1f} deg (measured az {a[k, 0] % 360:.2f} el {a[k, 1]:.2f}, "
+        f"nominal az {b[k, 0] % 360:.2f} el {b[k, 1]:.2f} deg)"
+        for k in far[:5]
+    ) + (", ..." if far.size > 5 else "")
+    warn_input(
+        samples[far[0]].path,
+        None,
+        f"{far.size} of {len(samples)} samples have their measured mirror normal (the bisector of the sun and the "
+        f"focal spot) and the normal of their motor positions (nominal kinematics of {HELIOSTAT_FILE}) more than "
+        f"{AIM_SEPARATION_DEG:g} deg apart beyond the run's common offset ({shown}): a sun position of another "
+        "time, a focal spot of another sample or a mistyped motor position? Such a sample is fitted as it "
+        "stands; correct it or remove it",
+        stacklevel=5,  # the caller of read_paint
+    )
 
 
 def _bisector(samples, sun: np.ndarray, to_spot: np.ndarray) -> np.ndarray:
