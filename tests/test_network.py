@@ -22,7 +22,6 @@ from pointax.cli import main as pointax_main
 from pointax.cli.fit_network import add_fit_network_parser, run_fit_network
 from pointax.analysis.network import (
     ManifestError,
-    ProgressBar,
     fit_network,
     read_manifest,
 )
@@ -255,25 +254,17 @@ def test_manifest_errors_stop_before_any_fit(tmp_path):
         fit_network(path)
 
 
-def test_progress_bar_text():
-    stream = io.StringIO()  # not a terminal: one line per update
-    bar = ProgressBar(10, stream=stream)
-    bar(4)
-    bar(10)
-    bar.close()
-    lines = stream.getvalue().splitlines()
-    assert len(lines) == 2
-    assert re.match(r"fitting \[#{12}\.{18}\]  4/10 sites .* left\)$", lines[0])
-    assert re.match(r"fitting \[#{30}\] 10/10 sites +\d+\.\d s$", lines[1])
+def test_progress_bar_on_a_terminal_only(tmp_path, monkeypatch):
+    """progress=True draws pointax.fitting.progress's bar on standard error when it is a
+    terminal, counting sites; nothing in a pipe."""
 
     class Terminal(io.StringIO):
         def isatty(self):
             return True
 
-    tty = Terminal()
-    bar = ProgressBar(3, stream=tty)
-    bar(1)
-    bar(3)
-    bar.close()
-    text = tty.getvalue()
-    assert text.count("\r") == 2 and text.endswith("\n") and text.count("\n") == 1
+    good = _manifest(tmp_path, f"site,path,format,azimuth\nmmt,{MMT_DAT},tpoint,S-E\n")
+    for stream, drawn in ((Terminal(), True), (io.StringIO(), False)):
+        monkeypatch.setattr("sys.stderr", stream)
+        fit_network(good, progress=True)
+        assert bool(re.search(r"fitting: .*1/1", stream.getvalue())) == drawn
+        assert drawn or stream.getvalue() == ""

@@ -29,7 +29,7 @@ from ..core.model import Model
 from ..core.mounts import HeliostatMount
 from ..core.observations import Observations
 from ..core.rotations import offset_angle
-from ..terms.heliostat import HELIOSTAT_DEFAULT, heliostat
+from ..terms.heliostat_terms import HELIOSTAT_DEFAULT, heliostat
 from ..fitting.cross_validation import leave_one_out
 
 __all__ = ["HeliostatCalibration", "calibrate_heliostat", "heliostat_model", "loo_shortfall"]
@@ -39,7 +39,7 @@ MRAD = 1e-3
 
 def heliostat_model(run: PaintRun, terms: str | Iterable[str] = HELIOSTAT_DEFAULT) -> Model:
     """The nominal model of a PAINT heliostat: its actuator geometry and the ``terms``
-    (names from :data:`pointax.terms.heliostat.HELIOSTAT_TERMS`, all starting at 0)."""
+    (names from :data:`pointax.terms.heliostat_terms.HELIOSTAT_TERMS`, all starting at 0)."""
     return Model(HeliostatMount.from_paint(run.heliostat), heliostat(terms))
 
 

@@ -28,7 +28,7 @@ format      yes       ``sun``: sun observations of a mirror turntable
                       calibrated with :func:`pointax.calibrate_heliostat`
 terms       no        terms to fit, separated by spaces (default: sun ``full``;
                       tpoint TPOINT's eight basic terms; paint ``t1n t1u t2e t2n``)
-form        no        tpoint: ``linear`` (default) or ``rigorous``
+form        no        tpoint: ``rigorous`` (default) or ``linear``
 residuals   no        tpoint: what the fit minimises, ``sky`` (default) or ``tpoint``
                       (TPOINT's own residuals, as ``pointax fit --residuals``)
 azimuth     no        tpoint: how the file counts azimuth, ``N-E`` (default), ``S-E``, ``S-W``
@@ -58,11 +58,10 @@ import csv
 import dataclasses
 import json
 import os
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -72,6 +71,7 @@ import numpy as np
 from .. import terms as term_library
 from ..core.precision import float64
 from ..fitting.batch import fit_batch, site_result, site_statuses, stack_observations
+from ..fitting.progress import progress_bar
 from .listing import observation_entries
 from ..fitting.core import SOLVERS
 from ..fitting.result import FitResult
@@ -82,7 +82,7 @@ from ..io.paint import FOCAL_SPOT_METHODS
 from ..core.model import RESIDUAL_FORMS
 from ..terms.model_factories import AltAz, Turntable
 from ..core.mounts import AZIMUTH_CONVENTIONS
-from ..terms.heliostat import HELIOSTAT_DEFAULT
+from ..terms.heliostat_terms import HELIOSTAT_DEFAULT
 from ..terms.sun_vector import TURNTABLE_MODELS, estimate_zeros
 
 __all__ = [
@@ -93,7 +93,6 @@ __all__ = [
     "read_manifest",
     "NetworkResult",
     "fit_network",
-    "ProgressBar",
 ]
 
 FORMATS = ("sun", "tpoint", "paint")
@@ -125,7 +124,7 @@ class SiteEntry:
         path: its data file or folder (resolved against the manifest's folder).
         format: one of :data:`FORMATS`.
         terms: names of the terms to fit.
-        form: TPOINT term form ('linear' or 'rigorous'; tpoint only).
+        form: TPOINT term form ('rigorous', the default, or 'linear'; tpoint only).
         residuals: the model's ``residual_form`` ('sky' or 'tpoint'; tpoint only).
         azimuth: azimuth convention of a TPOINT file (tpoint only).
         focal_spot: PAINT focal-spot method (paint only).
@@ -136,7 +135,7 @@ class SiteEntry:
     path: Path
     format: str
     terms: tuple[str, ...]
-    form: str = "linear"
+    form: str = "rigorous"
     residuals: str = "sky"
     azimuth: str = "N-E"
     focal_spot: str = FOCAL_SPOT_METHODS[0]
@@ -256,56 +255,6 @@ def _entry(name: str, number: int, base: Path, row: dict[str, str], seen: dict[s
     if not terms:
         raise error("terms", "names no terms")
     return SiteEntry(site=site, path=path, format=fmt, terms=terms, line=number, **options)
-
-
-# --------------------------------------------------------------------------- progress
-
-
-class ProgressBar:
-    """A text progress bar on a stream (standard error by default), usable as the
-    ``progress(done, total)`` callback of :func:`fit_network` or :func:`pointax.fit_batch`.
-
-    On a terminal it redraws one line; elsewhere (a log file, a pipe) it writes one line
-    per update. ``close()`` ends the line.
-    """
-
-    def __init__(self, total: int, *, stream: TextIO | None = None, label: str = "sites", width: int = 30):
-        self.total = int(total)
-        self.stream = stream if stream is not None else sys.stderr
-        self.label = label
-        self.width = int(width)
-        self.start = time.perf_counter()
-        self.done = 0
-        isatty = getattr(self.stream, "isatty", None)
-        self.redraw = bool(isatty and isatty())
-        self._open = False
-
-    def line(self, done: int) -> str:
-        """The bar's text for ``done`` of ``total``."""
-        fraction = done / self.total if self.total else 1.0
-        filled = int(round(self.width * fraction))
-        elapsed = time.perf_counter() - self.start
-        text = f"fitting [{'#' * filled}{'.' * (self.width - filled)}] {done:>{len(str(self.total))}}/{self.total} {self.label}  {elapsed:6.1f} s"
-        if 0 < done < self.total:
-            text += f"  (about {elapsed * (self.total - done) / done:.0f} s left)"
-        return text
-
-    def __call__(self, done: int, total: int | None = None) -> None:
-        if total is not None:
-            self.total = int(total)
-        self.done = int(done)
-        if self.redraw:
-            self.stream.write("\r" + self.line(self.done).ljust(self.width + 60))
-            self._open = True
-        else:
-            self.stream.write(self.line(self.done) + "\n")
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self._open:
-            self.stream.write("\n")
-            self.stream.flush()
-            self._open = False
 
 
 # --------------------------------------------------------------------------- results
@@ -456,7 +405,8 @@ def fit_network(
         max_steps: solver step limit; a site that reaches it is 'failed'.
         chunk_size: sites per compiled call of a batch (bounds memory; the progress
             bar moves once per chunk); ``None`` for one call per batch.
-        progress: ``True`` for a :class:`ProgressBar` on standard error, or a callable
+        progress: ``True`` for a progress bar on standard error when it is a terminal
+            (:func:`pointax.fitting.progress.progress_bar`), or a callable
             ``progress(sites_done, sites_total)`` called after each chunk and each
             heliostat; ``False`` for none.
         client: a ``distributed.Client`` (or scheduler address) to run the batches on
@@ -487,7 +437,7 @@ def fit_network(
             out[entry.site] = {**_header(entry), "status": "failed", "reason": reason, "converged": False}
 
     to_fit = [e for e in entries if e.site in loaded]
-    bar = ProgressBar(len(to_fit)) if progress is True else None
+    bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None
     report = bar if bar is not None else (progress if callable(progress) else None)
     done = 0
     try:

@@ -97,7 +97,7 @@ HTML report, :mod:`pointax.plots.report`), :mod:`pointax.cli.tpoint` (TPOINT pro
 
 Compiled fits are cached on disk (JAX's persistent compilation cache) in
 ``$POINTAX_JAX_CACHE``, by default ``~/.cache/pointax/jax``: a repeated ``pointax fit``
-of the same model then starts in about 2 s instead of 8 s. ``POINTAX_JAX_CACHE=""``
+of the same model then loads its compiled fit instead of compiling it. ``POINTAX_JAX_CACHE=""``
 turns the cache off.
 """
 
@@ -139,7 +139,7 @@ def _version() -> str:
 
 class _VersionAction(argparse.Action):
     """``--version``, looked up only when asked for (reading the installed package's
-    metadata costs 30-40 ms of every command otherwise)."""
+    metadata would otherwise lengthen every command's start)."""
 
     def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help="show the version and exit"):
         super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)

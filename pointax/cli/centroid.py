@@ -29,7 +29,7 @@ from . import choices
 __all__ = ["add_centroid_parser", "run_centroid", "main", "METHODS"]
 
 METHODS = choices.CENTROID_METHODS
-"""``--method`` choices (those of :func:`pointax.sunsensor.centroid.centroid`), a copy
+"""``--method`` choices (those of :func:`pointax.sunsensor.centroids.centroid`), a copy
 in :mod:`pointax.cli.choices`, so that building the parser does not import torch."""
 
 
@@ -90,7 +90,7 @@ def run_centroid(args: argparse.Namespace) -> int:
     except ImportError as err:
         print(f"pointax centroid: error: {err}", file=sys.stderr)
         return 2
-    from ..sunsensor.centroid import centroid
+    from ..sunsensor.centroids import centroid
     from ..sunsensor.imageio import FrameReadError, read_frame
 
     for option in ("radius", "aspect", "saturation"):

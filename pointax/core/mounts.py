@@ -435,7 +435,7 @@ class HeliostatMount(Mount):
 
     in East-North-Up, with right-handed rotations Re, Rn, Ru about East, North, Up:
     ``theta1`` is the mirror's zenith angle. Axis tilts (``t1n, t1u, t2e, t2n``) and
-    joint-angle zeros are terms (:mod:`pointax.terms.heliostat`).
+    joint-angle zeros are terms (:mod:`pointax.terms.heliostat_terms`).
 
     Each axis's actuator turns increments into a joint angle by the law of cosines::
 

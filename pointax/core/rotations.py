@@ -236,9 +236,9 @@ def angle_between(a: Float[ArrayLike, "*batch 3"], b: Float[ArrayLike, "*batch 3
 def wrap_pi(angle: ArrayLike) -> Array:
     """Wrap an angle to [-pi, pi).
 
-    By ``floor`` rather than ``%``: XLA on the CPU took 0.2-0.46 ms for the
-    floating-point remainder of 61,440 angles against 0.045 ms for this (as long as a
-    copy); batched fits wrap every observation's angles."""
+    By ``floor`` rather than ``%``: XLA on the CPU computes a floating-point remainder
+    several times slower than this (which costs about a copy), and batched fits wrap
+    every observation's angles."""
     angle = jnp.asarray(angle)
     turns = jnp.floor((angle + jnp.pi) * (0.5 / jnp.pi))
     return angle - (2 * jnp.pi) * turns

@@ -1,11 +1,10 @@
 """Sine, cosine and arctangent of float64 arrays as vectorised polynomials.
 
 XLA on the CPU computes ``sin``, ``cos`` and ``atan2`` in float64 by calling the C
-library once per element: 6-10 ns each on this project's machine, against 0.5 ns for a
-multiply-add pass over the same array. :func:`sincos` computes both from one argument
-reduction and two short polynomials in plain array arithmetic, which XLA vectorises:
-about 1.5 ns for the pair; :func:`atan2` about 1.3-1.7 ns against 10-14
-(``benchmarks/batch_fit_notes.md``, change 9).
+library once per element, an order of magnitude slower than a multiply-add pass over the
+same array. :func:`sincos` computes both from one argument reduction and two short
+polynomials in plain array arithmetic, which XLA vectorises, and so does :func:`atan2`
+(the figures: ``benchmarks/batch_fit_notes.md``).
 
 Both follow fdlibm (Sun's C library, the basis of most others). :func:`sincos` reduces
 ``x`` to ``r = x - q pi/2``, ``|r| <= pi/4``, with ``pi/2`` in Cody and Waite's parts
@@ -25,9 +24,9 @@ before the step loop (which takes them as arrays) or, for one-step fits, in a co
 call of their own: the encoder angles' sines and cosines (:mod:`pointax.fitting.fast_evaluation`)
 and the observed angles of the TPOINT residual form
 (:meth:`pointax.SphericalMount.sky_point_of`). Not inside the compiled fit: there XLA
-copies a cheap producer into each of its consumers, and the polynomials of the
-per-site rotation angles, copied into 28 fusions, made the module a third larger and
-its compilation slower (change 9).
+copies a cheap producer into each of its consumers, so the polynomials of the per-site
+rotation angles would be copied into every fusion that uses an angle, making the module
+larger and its compilation slower.
 """
 
 from __future__ import annotations

@@ -113,7 +113,7 @@ def value_in_unit(x, unit: str, name: str = "value") -> np.ndarray:
         if _is_skycoord(x):
             raise ValueError(f"{name}: a SkyCoord is a direction, not an angle")
         return np.asarray(x, np.float64)
-    import astropy.units as u
+    u = sys.modules["astropy.units"]  # loaded by whoever made the Quantity x
 
     target = u.dimensionless_unscaled if unit == "1" else u.Unit(unit if unit != "mrad" else "mrad")
     try:

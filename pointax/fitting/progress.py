@@ -1,5 +1,5 @@
-"""Progress bars for long work (comparison folds, model building, network fits),
-through tqdm, on a terminal only.
+"""Progress bars for long work (comparison folds, model building, leave-one-out, network
+fits), through tqdm, on a terminal only: pointax's one progress-bar module.
 
     with progress_bar(total=8, desc="folds", enabled=progress) as bar:
         for ...:
@@ -10,6 +10,9 @@ through tqdm, on a terminal only.
 when that stream is a terminal, ``False`` (the library's default) draws nothing.
 Output that is not a terminal (a pipe, a log file, a test's captured stream) never gets
 a bar, so logs and JSON stay clean; ``--quiet`` on the command line passes ``False``.
+A :class:`Progress` is also the ``progress(done, total)`` callback that
+:func:`pointax.fit_batch` and :func:`pointax.analysis.network.fit_network` call after
+each chunk of sites.
 """
 
 from __future__ import annotations

@@ -590,7 +590,7 @@ def read_tpoint(
         mount: 'altaz' or 'equatorial' for files without a mount option (or to check
             the file says so).
         refraction: the refraction constants ``(A, B)`` in radians (e.g. a model
-            file's ``refraction`` times ``pointax.ARCSEC``), instead of those computed
+            file's ``refraction`` times ``pointax.core.units.ARCSEC``), instead of those computed
             from the run's weather; they are applied to equatorial runs.
 
     Raises:

@@ -40,7 +40,7 @@ def site_rows(result, names=None) -> list[tuple[str, str, float, str]]:
                 rms = None if mrad is None else mrad * ARCSEC_PER_MRAD
             rows.append((str(d["site"]), str(d["status"]), math.nan if rms is None else float(rms), str(d.get("reason", ""))))
         return rows
-    from ..fitting.batch import site_statuses
+    from ..fitting import site_statuses
 
     statuses = site_statuses(result)
     rms = np.asarray(result.sky_rms, float).reshape(-1) / ARCSEC

@@ -4,7 +4,7 @@
   abbreviations, TPOINT's commands pointax notes, where each line is from.
 * :mod:`~pointax.procedures.session`: the state (run, terms, values, masks, last fit).
 * :mod:`~pointax.procedures.step`: FIT, one linearised (Gauss-Newton) adjustment.
-* :mod:`~pointax.procedures.commands`: the commands, one function each.
+* :mod:`~pointax.procedures.tpoint_commands`: the TPOINT commands, one function each.
 * :mod:`~pointax.procedures.graphics`: G..., GC, CAPT and PLTZ (panels of a 3 x 3 page).
 * :mod:`~pointax.procedures.runner`: scripts, PROC ... RETURN, INPRO, CALL, standard input.
 

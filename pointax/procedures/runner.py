@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO
 
-from .commands import COMMAND_FUNCTIONS, LIGHT_COMMANDS
+from .tpoint_commands import COMMAND_FUNCTIONS, LIGHT_COMMANDS
 from .parser import PLOT_PROCEDURES, Line, ProcedureError, lines_of, read_script, resolve, split
 from .session import Session
 

@@ -14,8 +14,8 @@ ephemeris, light time, annual and diurnal aberration, precession-nutation, UT1 a
 motion from the IERS tables, parallax of the site) transformed to ``AltAz(obstime=t,
 location=site)``. Against NREL's SPA (Reda & Andreas 2004, through pvlib) it agrees to
 0.8 arcsec over a year at three sites (``tests/test_sky.py``); SPA's own stated
-uncertainty is 0.0003 deg = 1.1 arcsec. Cost: about 0.2-0.4 ms of CPU per time (mostly
-ERFA's Earth ephemeris), plus ~20 ms per call.
+uncertainty is 0.0003 deg = 1.1 arcsec. Cost: mostly ERFA's Earth ephemeris per time,
+plus a fixed cost per call far larger than one time's: pass many times at once.
 
 Refraction. Only when ``pressure_hpa`` is given, with ERFA's model, exactly as astropy's
 ``AltAz`` frame applies it (see :func:`refraction`).

@@ -91,7 +91,7 @@ def read_frame(path) -> np.ndarray:
     Raises:
         FrameReadError: the file is missing, of an unknown type, unreadable, or not a
             grayscale image. Shape and dtype are checked later, per frame, by
-            :func:`pointax.sunsensor.centroid.check_frame`.
+            :func:`pointax.sunsensor.centroids.check_frame`.
     """
     path = Path(path)
     if not path.is_file():

@@ -2,7 +2,7 @@
 batch of same-shape frames, its region of interest, background plane, intensity
 centroid and limb points, and the circle (ellipse, with ``aspect``) fitted to them, in
 torch. :func:`measure` returns per-frame tensors; judging them (statuses) is
-:mod:`pointax.sunsensor.centroid`'s.
+:mod:`pointax.sunsensor.centroids`'s.
 """
 
 from __future__ import annotations

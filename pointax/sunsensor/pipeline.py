@@ -31,7 +31,7 @@ from ..core.precision import float64
 from ..core.observations import Observations
 from ..terms.camera import camera_axis_target, camera_frame
 from .camera import Camera
-from .centroid import Centroids, centroid
+from .centroids import Centroids, centroid
 from .frames import Detector, SyntheticFrames, synthetic_frames
 
 __all__ = ["SensorObservations", "sensor_observations", "refine_targets", "camera_frames", "simulate_frames"]
@@ -44,7 +44,7 @@ class SensorObservations:
     Attributes:
         observations: :class:`pointax.Observations` of the camera axis, one per usable
             frame (``pointax.fit`` accepts this object directly).
-        centroids: :class:`pointax.sunsensor.centroid.Centroids` of every frame.
+        centroids: :class:`pointax.sunsensor.centroids.Centroids` of every frame.
         status, reason: per frame: the centroid's status, or ``bad_encoder`` /
             ``bad_sun`` for a non-finite reading or sun direction.
         used: ``(n,)`` bool: frames that became observations.
@@ -106,7 +106,7 @@ def sensor_observations(
     observations of the camera axis.
 
     Args:
-        frames: the frames (anything :func:`pointax.sunsensor.centroid.centroid` takes).
+        frames: the frames (anything :func:`pointax.sunsensor.centroids.centroid` takes).
         encoder: ``(n, 2)`` raw readings at each frame, radians, in the mount's convention.
         sun: ``(n, 3)`` the sun's direction at each frame (East-North-Up unit vectors,
             e.g. :func:`pointax.sky.sun_direction`).
@@ -115,7 +115,7 @@ def sensor_observations(
         names: optional frame names (file names) for messages.
         frame: optional ``(n, 3, 3)`` camera attitudes to place the offsets with
             (:func:`camera_frames` of a fitted model); default the nominal attitude.
-        **centroid_options: passed to :func:`~pointax.sunsensor.centroid.centroid`
+        **centroid_options: passed to :func:`~pointax.sunsensor.centroids.centroid`
             (``method``, ``saturation``, thresholds); ``radius``, ``aspect`` and
             ``shape`` default to the camera's.
 
