@@ -86,6 +86,7 @@ def _title_figures(fig) -> tuple[float, float]:
     return float(rms), float(top)
 
 
+@pytest.mark.slow
 def test_a_sun_plan_map_is_titled_with_the_figures_of_its_table():
     """The table's predicted RMS and maximum (over the sun's path) are those of the sky
     map's title, both named 'over the sun's path'; a star plan's map gives the sky's."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import sys
 
+import pytest
 from conftest import EXAMPLES
 
 
@@ -16,6 +17,7 @@ def load_example(name: str):
     return module
 
 
+@pytest.mark.slow
 def test_new_error_term_recovers_the_wobble_within_one_sigma():
     out = load_example("new_error_term").main(seed=0, verbose=False)
     assert out["converged"]
@@ -31,6 +33,7 @@ def test_term_definition_is_at_most_20_lines():
     assert len(body) <= 20, len(body)
 
 
+@pytest.mark.slow
 def test_turntable_sun_calibration_example():
     module = load_example("turntable_sun_calibration")
     out = module.main(realisations=1, seed=0, verbose=False)

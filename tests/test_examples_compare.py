@@ -18,7 +18,10 @@ import json
 import subprocess
 import sys
 
+import pytest
 from conftest import EXAMPLES, REPO
+
+pytestmark = pytest.mark.slow  # the example end to end, about 30 s
 
 
 def test_compare_model_families_reproduces_the_shape_of_table_3(tmp_path):

@@ -12,6 +12,8 @@ from conftest import EXAMPLES, REPO
 pytest.importorskip("torch")
 pytest.importorskip("kornia")
 
+pytestmark = pytest.mark.slow  # the example end to end, about 30 s
+
 
 def test_sun_sensor_calibration_example():
     proc = subprocess.run(

@@ -91,6 +91,7 @@ def _check(model, limits, seed, near_mode):
 coef = st.floats(-60.0, 60.0)  # arcsec: terms of realistic size
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("elevation", list(ELEVATION), ids=list(ELEVATION))
 @pytest.mark.parametrize("wrap", list(WRAPS), ids=list(WRAPS))
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -100,6 +101,7 @@ def test_altaz_inverse_is_ok_hits_and_is_nearest(wrap, elevation, values, seed, 
     _check(_altaz(values), limits, seed, near_mode)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("wrap", list(WRAPS), ids=list(WRAPS))
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(

@@ -34,6 +34,7 @@ def run():
     return px.io.read_tpoint(DATA, azimuth="S-E")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("form", "residual_form", "rtol"), [("linear", "tpoint", 1e-6), ("rigorous", "sky", 1e-4)])
 def test_loo_matches_refits(run, form, residual_form, rtol):
     model = run.model(px.terms.tpoint(TERMS, form=form), residual_form=residual_form)

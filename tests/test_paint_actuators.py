@@ -263,6 +263,7 @@ def test_mixed_axes_keep_each_law():
 # --------------------------------------------------------------------------- calibration
 
 
+@pytest.mark.slow
 def test_simulated_calibration_recovers_known_tilts(tmp_path):
     motor, normals = simulate(tmp_path / "AA39-ideal")
     run = read_paint(tmp_path / "AA39-ideal", tower=TOWER)
@@ -294,6 +295,7 @@ def test_noisy_calibration_and_its_cross_check(tmp_path):
     assert cal.rms("after") < cal.rms("loo") < 1.5e-3
 
 
+@pytest.mark.slow
 def test_leave_one_out_is_optional_and_skipped_when_samples_are_too_few(tmp_path):
     simulate(tmp_path / "three", suns=SUNS[:3])
     run = read_paint(tmp_path / "three", tower=TOWER)
