@@ -16,6 +16,7 @@ import pointax as px
 from pointax.cli import main
 from pointax.core.rotations import azel_to_enu_numpy
 
+from numpy_rotations import angle_between
 from conftest import MMT_MOD
 
 VALUES = {"IA": 25.0, "IE": -18.0, "CA": 14.0, "NPAE": -6.0, "AN": 11.0, "AW": -9.0, "TF": 22.0}
@@ -24,10 +25,6 @@ VALUES = {"IA": 25.0, "IE": -18.0, "CA": 14.0, "NPAE": -6.0, "AN": 11.0, "AW": -
 def _model():
     return px.AltAz(px.terms.tpoint(" ".join(VALUES), values={k: px.arcsec(v) for k, v in VALUES.items()}))
 
-
-def _angle(a, b):
-    a, b = np.asarray(a), np.asarray(b)
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
 
 
 @pytest.mark.parametrize(
@@ -48,7 +45,7 @@ def test_default_branch_is_nearest_the_middle_of_the_limits(limits_deg, az, expe
     assert bool(np.all(np.asarray(c.ok))), c.reasons()
     reading = np.asarray(c.reading)
     np.testing.assert_allclose(np.degrees(reading[:, 0]), expected, atol=0.05)
-    assert np.max(_angle(np.asarray(model(reading)), d)) < 1e-10
+    assert np.max(angle_between(np.asarray(model(reading)), d)) < 1e-10
 
 
 def test_near_picks_the_branch_and_the_twin():
@@ -64,7 +61,7 @@ def test_near_picks_the_branch_and_the_twin():
     # Near an over-the-top reading: the twin (az - 180, 180 - el) is nearer.
     np.testing.assert_allclose(reading[2], [-90.0, 120.0], atol=0.05)
     assert int(np.asarray(c.solution)[2]) == 1
-    assert np.max(_angle(np.asarray(model(np.asarray(c.reading))), d)) < 1e-10
+    assert np.max(angle_between(np.asarray(model(np.asarray(c.reading))), d)) < 1e-10
     # Without near at 0.7 deg: the normal solution, never over the top.
     c = px.command(model, d[:2], limits=limits)
     assert np.all(np.asarray(c.solution) == 0) and np.all(np.degrees(np.asarray(c.reading))[:, 1] < 1.0)
@@ -87,7 +84,7 @@ def test_cli_model_without_mount_is_altaz(tmp_path, capsys):
         assert row["input_azimuth"] == "N-E" and row["reading_azimuth"] == "N-E"
         reading = np.radians([row["az_deg"], row["el_deg"]])
         wanted = azel_to_enu_numpy(*np.radians(row["input_deg"]))
-        assert _angle(np.asarray(model(reading)), wanted) < 1e-9
+        assert angle_between(np.asarray(model(reading)), wanted) < 1e-9
 
 
 def test_cli_turntable_with_model_file_is_an_error(tmp_path, capsys):
@@ -110,7 +107,7 @@ def test_cli_equatorial_model_needs_mount_and_latitude(tmp_path, capsys):
     row = json.loads(capsys.readouterr().out)[0]
     model = px.io.read_model(mod).model(mount="equatorial", latitude=np.radians(31.7))
     reading = np.radians([row["ha_deg"], row["dec_deg"]])
-    assert _angle(np.asarray(model(reading)), azel_to_enu_numpy(*np.radians([90.0, 30.0]))) < 1e-9
+    assert angle_between(np.asarray(model(reading)), azel_to_enu_numpy(*np.radians([90.0, 30.0]))) < 1e-9
 
 
 def test_cli_near_and_cable_wrap(tmp_path, capsys):

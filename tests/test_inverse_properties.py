@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pointax as px
+from numpy_rotations import angle_between
 
 N = 64
 DEG = np.pi / 180
@@ -28,9 +29,6 @@ WRAPS = {"-270..270": (-270.0, 270.0), "0..360": (0.0, 360.0), "-180..540": (-18
 ELEVATION = {"normal only": (0.0, 90.0), "over the top": (0.0, 180.0)}
 SHIFTS = np.array(list(itertools.product(range(-3, 4), range(-1, 2))), float) * 2 * np.pi
 
-
-def _angle(a, b):
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
 
 
 def _altaz(values):
@@ -62,13 +60,13 @@ def _check(model, limits, seed, near_mode):
     ok = np.asarray(c.ok)
     assert ok.all(), [r for r in c.reasons() if r][:5]
     reading = np.asarray(c.reading)
-    assert np.max(_angle(np.asarray(model(reading)), target)) < HIT
+    assert np.max(angle_between(np.asarray(model(reading)), target)) < HIT
     lim = np.asarray(limits)
     assert np.all((reading >= lim[:, 0]) & (reading <= lim[:, 1]))
     # The equivalent readings: the generator and its twin (solved without limits and
     # checked here on the forward model), each shifted by whole turns.
     twin = np.asarray(px.command(model, target, solution="flipped").reading)
-    twin_hits = _angle(np.asarray(model(twin)), target) < HIT
+    twin_hits = angle_between(np.asarray(model(twin)), target) < HIT
     cands = [reading0[:, None, :] + SHIFTS, np.where(twin_hits[:, None, None], twin[:, None, :] + SHIFTS, np.nan)]
     cands = np.concatenate(cands, axis=1)
     inside = np.all((cands >= lim[:, 0]) & (cands <= lim[:, 1]), axis=-1)
