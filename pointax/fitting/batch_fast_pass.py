@@ -24,7 +24,7 @@ from ..core.model import Model
 from ..core.mounts import SphericalMount
 from ..core.term import Term
 from . import normal_equations, xla_options
-from .core import result_from_covariance
+from .core import result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
 from .problem import SiteData, is_affine, site_data, site_residuals
 from .result import FitResult
@@ -175,9 +175,9 @@ def finish(model: Model, last: Linearisation, data: SiteData, steps: int, rtol: 
         f_change = step_change
     fitted = model.replace_parameters(params, [y[k] for k in range(m)])
     # Per residual component (a concatenation would copy every column once more).
-    small = jnp.all(jnp.abs(update) <= atol + rtol * jnp.abs(y))
+    small = jnp.all(within_tolerances(update, y, rtol, atol))
     for change, now in zip(f_change, rw):
-        small = small & jnp.all(jnp.abs(change) <= atol + rtol * jnp.abs(now))
+        small = small & jnp.all(within_tolerances(change, now, rtol, atol))
     suspect = ~jnp.all(pivots > SUSPECT_PIVOT) if m else jnp.asarray(False)
     unit_cov = normal_equations.inverse(low) if m else jnp.zeros((0, 0))
     result = result_from_covariance(

@@ -182,8 +182,8 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     # part matters: a Gauss-Newton run diverged to 1e14 rad passes the parameters' part
     # on its relative tolerance alone.
     after = step.residuals * jnp.sqrt(weight)[:, None]
-    residuals_settled = jnp.abs(after - step.start_residuals) <= options.atol + options.rtol * jnp.abs(step.start_residuals)
-    settled = jnp.all(jnp.abs(step.change) <= options.atol + options.rtol * jnp.abs(y_solver)) & jnp.all(
+    residuals_settled = within_tolerances(after - step.start_residuals, step.start_residuals, options.rtol, options.atol)
+    settled = jnp.all(within_tolerances(step.change, y_solver, options.rtol, options.atol)) & jnp.all(
         residuals_settled | ~used[:, None]
     )
     status = jnp.where(settled & (solver_status(sol.result) == solver_status("nonlinear_max_steps_reached")), SUCCESSFUL, solver_status(sol.result))
@@ -205,6 +205,13 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         robust_converged=robust_ok,
         every_parameter=True,
     )
+
+
+def within_tolerances(change, reference, rtol: float, atol: float):
+    """optimistix's Cauchy test, element by element: ``|change| <= atol + rtol |reference|``
+    (a parameter's step against its value, a residual's change against the residual).
+    The solo fit's step-limit check and the batched fit's fast pass share it."""
+    return jnp.abs(change) <= atol + rtol * jnp.abs(reference)
 
 
 class LinearisedStep(NamedTuple):
