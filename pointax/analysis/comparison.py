@@ -342,7 +342,7 @@ def compare(
     def predict(model: Model, rows: np.ndarray) -> np.ndarray:
         """``px.residuals(model, the observations of rows)``: the rows are picked by
         weight, so every set of rows shares one compiled evaluation per model."""
-        chosen = Observations(obs64.encoder, obs64.target, jnp.asarray(rows, jnp.float64), obs.convention)
+        chosen = obs64.with_weight(jnp.asarray(rows, jnp.float64))
         return np.asarray(_residuals(model, chosen))[rows]
 
     out_rows = np.zeros(len(obs), bool)

@@ -156,7 +156,7 @@ class HeliostatCalibration:
 
 def _errors(model: Model, obs: Observations) -> np.ndarray:
     """Angle between observed and modelled direction of every observation, radians."""
-    every = Observations(obs.encoder, obs.target, None, obs.convention)  # weights aside
+    every = obs.with_weight(None)  # weights aside
     return np.asarray(offset_angle(residuals(model, every)))
 
 

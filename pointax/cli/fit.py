@@ -543,11 +543,10 @@ def masked_observations(outcome: FitOutcome):
     masked)."""
     import numpy as np
 
-    from ..core.observations import Observations
 
     obs = outcome.observations
     weight = np.where(outcome.masked, 0.0, np.asarray(obs.weight, np.float64))
-    return Observations(obs.encoder, obs.target, weight, obs.convention)
+    return obs.with_weight(weight)
 
 
 def _plot(path: str, outcome: FitOutcome) -> None:

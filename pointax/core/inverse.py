@@ -254,10 +254,15 @@ def _settle(model: Model, reading, target, near, has_near, limits, pref, tol: fl
 
 
 @eqx.filter_jit
-def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps: int, solution: Array):
+def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps: int, solution: Array, values=None):
     """The solve for ``(n, 3)`` directions; see :func:`command`. ``near`` is ``(n, 2)``
     and used only where the scalar ``has_near`` is True, ``solution`` is the index
-    into :data:`SOLUTIONS`: both are traced, so they do not cause recompiling."""
+    into :data:`SOLUTIONS`: both are traced, so they do not cause recompiling.
+    ``values``: the auxiliary readings the model reads, name -> ``(n,)`` (``{}`` for
+    a model that reads none); each direction is solved with the model bound to its own
+    (:meth:`pointax.Model.at_readings`)."""
+    values = {} if values is None else values
+    at = model.at_readings
     n = d.shape[0]
     finite = jnp.all(jnp.isfinite(d), axis=-1)
     norm = jnp.linalg.norm(jnp.where(finite[:, None], d, 0.0), axis=-1)
@@ -265,15 +270,16 @@ def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps
     safe_norm = jnp.where(good, norm, 1.0)[:, None]
     target = jnp.where(good[:, None], d / safe_norm, jnp.asarray(_SAFE, d.dtype))
 
-    starts, prefs = jax.vmap(lambda t, m: _starts(model, t, m, has_near, limits))(target, near)
+    starts, prefs = jax.vmap(lambda t, m, v: _starts(at(v), t, m, has_near, limits))(target, near, values)
     # One batched Newton solve over both mechanical solutions of every direction.
     targets2 = jnp.repeat(target, 2, axis=0)
     near2 = jnp.repeat(near, 2, axis=0)
-    readings, steps = jax.vmap(lambda s, t: _newton(model, s, t, tol, max_steps))(
-        starts.reshape(2 * n, 2), targets2
+    values2 = {k: jnp.repeat(v, 2, axis=0) for k, v in values.items()}
+    readings, steps = jax.vmap(lambda s, t, v: _newton(at(v), s, t, tol, max_steps))(
+        starts.reshape(2 * n, 2), targets2, values2
     )
-    readings, residuals, status = jax.vmap(lambda r, t, m, p: _settle(model, r, t, m, has_near, limits, p, tol))(
-        readings, targets2, near2, prefs.reshape(2 * n, 2)
+    readings, residuals, status = jax.vmap(lambda r, t, m, p, v: _settle(at(v), r, t, m, has_near, limits, p, tol))(
+        readings, targets2, near2, prefs.reshape(2 * n, 2), values2
     )
     readings = readings.reshape(n, 2, 2)
     residuals = residuals.reshape(n, 2)
@@ -300,7 +306,9 @@ def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps
     # where the normal Newton solve meets a singular Jacobian). A normal solve that
     # merely did not converge (near the horizon of a model with a cot E term) is
     # reported as such, never replaced by the flipped one.
-    flipped_angles = jax.vmap(model.corrected_encoder)(jnp.where(jnp.isfinite(readings[:, 1]), readings[:, 1], 0.0))
+    flipped_angles = jax.vmap(lambda r, v: at(v).corrected_encoder(r))(
+        jnp.where(jnp.isfinite(readings[:, 1]), readings[:, 1], 0.0), values
+    )
     at_pole = jnp.cos(flipped_angles[:, 1]) >= -ZENITH_TOL
     normal_status = status[:, 0]
     out_of_limits = (normal_status & (_AXIS1_OUT | _AXIS2_OUT)) != 0
@@ -368,6 +376,31 @@ def limits_array(limits) -> Array:
     return jnp.stack(rows)
 
 
+def _command_readings(model: Model, readings, batch: tuple[int, ...]) -> dict:
+    """The readings ``model`` reads, each ``(prod(batch),)`` float64 (``{}`` for a model
+    that reads none); ValueError naming the missing ones or a wrong shape."""
+    if not model.readings:
+        return {}
+    readings = {} if readings is None else readings
+    missing = [n for n in model.readings if n not in readings]
+    if missing:
+        raise ValueError(
+            f"the model reads {', '.join(map(repr, missing))}: give their values at the time of the command "
+            f"with readings={{...}} (given: {sorted(readings) or 'none'})"
+        )
+    out = {}
+    for name in model.readings:
+        value = jnp.asarray(readings[name], float)
+        try:
+            value = jnp.broadcast_to(value, batch)
+        except ValueError:
+            raise ValueError(
+                f"reading {name!r} has shape {value.shape}; expected a scalar or the directions' batch shape {batch}"
+            ) from None
+        out[name] = value.reshape(-1)
+    return out
+
+
 # ---------------------------------------------------------------------- public API
 
 
@@ -381,6 +414,7 @@ def command(
     limits=None,
     tol: float = 1e-12,
     max_steps: int = 50,
+    readings=None,
 ) -> Command:
     """Raw encoder readings that point ``model`` at ``direction`` (the model's inverse).
 
@@ -420,6 +454,10 @@ def command(
             zenith of an alt-az mount with collimation error) report "did not
             converge".
         max_steps: most Newton steps.
+        readings: for a model that reads auxiliary readings (:attr:`pointax.Model.readings`):
+            their values at the time of the command, a mapping name -> a scalar or an
+            array of the batch shape ``direction.shape[:-1]`` (each direction solved
+            with its own). Others are ignored; a missing one raises ``ValueError``.
 
     Returns:
         A :class:`Command` with batch shape ``direction.shape[:-1]``.
@@ -447,6 +485,7 @@ def command(
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
         near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
     lim = limits_array(limits)
+    values = _command_readings(model, readings, batch)
     # Parameters as arrays, so that jit traces them instead of baking Python floats in
     # (one compilation for every set of values).
     model = model.with_values(model.values())
@@ -455,6 +494,7 @@ def command(
     pad = size - n
     flat = jnp.concatenate([flat, jnp.broadcast_to(jnp.asarray(_SAFE), (pad, 3))])
     near_flat = jnp.concatenate([near_flat, jnp.zeros((pad, 2))])
+    values = {k: jnp.concatenate([v, jnp.broadcast_to(v[:1], (pad,))]) for k, v in values.items()}
     outputs = _command_flat(
         model,
         flat,
@@ -464,6 +504,7 @@ def command(
         float(tol),
         int(max_steps),
         jnp.asarray(SOLUTIONS.index(solution)),
+        values,
     )
     reading, ok, residual, iterations, pick, status = (x[:n] for x in outputs)
     return Command(

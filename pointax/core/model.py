@@ -15,6 +15,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .precision import float64
 from .mounts import Mount, SphericalMount
+from .readings import bind_readings, readings_needed
 from .term import Term, check_linear_claim, param_fields, param_unit
 from .units import TURN, UNITS, check_angle_radians, check_pointing_term, is_quantity, value_in_unit
 
@@ -282,6 +283,32 @@ class Model(eqx.Module):
         kept = {p.name for p in self.parameters if self.terms[p.term].name not in names}
         return self.restructured(terms=keep, fixed=self.fixed & kept)
 
+    # ----------------------------------------------------------------- readings
+
+    @property
+    def readings(self) -> tuple[str, ...]:
+        """Sorted names of the auxiliary readings the model's terms read
+        (:attr:`pointax.Term.readings`); ``()`` for a model that reads none."""
+        return readings_needed(self.terms)
+
+    def at_readings(self, readings) -> "Model":
+        """A copy whose terms that read auxiliary readings see ``readings`` (a mapping
+        name -> value: scalars for one observation); terms that read none are the
+        same objects. ``readings`` must hold every name of :attr:`readings` (KeyError
+        naming the term and the reading otherwise); others are ignored. The model
+        itself when it reads none. Pure: the values are traced data (a change of them
+        never recompiles)."""
+        if not self.readings:
+            return self
+        terms = tuple(bind_readings(t, readings) if t.readings else t for t in self.terms)
+        copy = object.__new__(type(self))
+        copy.__dict__.update(self.__dict__)
+        object.__setattr__(copy, "terms", terms)
+        return copy
+
+    def _bound(self, readings) -> "Model":
+        return self if readings is None else self.at_readings(readings)
+
     # ----------------------------------------------------------------- evaluation
 
     def _apply(self, hook: str, angles: Array, v: Array) -> Array:
@@ -337,33 +364,46 @@ class Model(eqx.Module):
         d = self._apply("base_rotation", angles, d)
         return d, angles
 
-    def mount_direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
+    def mount_direction(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "3"]:
         """Pointing direction in the *mount* frame for one observation's raw encoder
-        angles (radians). Use :meth:`direction` for East-North-Up."""
+        angles (radians) and, for a model that reads them, its auxiliary ``readings``
+        (a mapping name -> scalar; :meth:`at_readings`). Use :meth:`direction` for
+        East-North-Up."""
+        if readings is not None:
+            return self.at_readings(readings).mount_direction(encoder)
         d, angles = self.chain_direction(encoder)
         if self.sky_offset(angles) is None:
             return d
         chain_angles = self.mount.angles_of(d, near=angles)
         return self.mount.direction(self.sky_position(chain_angles))
 
-    def sky_angles(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
-        """Where the mount points, as angles in the mount's convention (one observation)."""
+    def sky_angles(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "2"]:
+        """Where the mount points, as angles in the mount's convention (one observation;
+        ``readings`` as in :meth:`mount_direction`)."""
         encoder = jnp.asarray(encoder)
-        return self.mount.angles_of(self.mount_direction(encoder), near=self.mount.axis_angles(encoder))
+        return self.mount.angles_of(self.mount_direction(encoder, readings), near=self.mount.axis_angles(encoder))
 
-    def direction(self, encoder: Float[Array, "2"]) -> Float[Array, "3"]:
-        """Pointing direction (ENU unit vector) for one observation's raw encoder angles."""
-        return self.mount.frame @ self.mount_direction(encoder)
+    def direction(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "3"]:
+        """Pointing direction (ENU unit vector) for one observation's raw encoder angles
+        (``readings`` as in :meth:`mount_direction`)."""
+        return self.mount.frame @ self.mount_direction(encoder, readings)
 
     @float64
-    def __call__(self, encoder: Float[ArrayLike, "*batch 2"]) -> Float[Array, "*batch 3"]:
+    def __call__(self, encoder: Float[ArrayLike, "*batch 2"], readings=None) -> Float[Array, "*batch 3"]:
         """Pointing directions (ENU) for raw encoder angles of any batch shape (radians,
-        or an astropy Quantity, converted)."""
+        or an astropy Quantity, converted). ``readings``: for a model that reads
+        auxiliary readings (:attr:`readings`), a mapping name -> value per observation,
+        arrays of the batch shape ``(*batch,)`` (or scalars, the same for all)."""
         if is_quantity(encoder):
             encoder = value_in_unit(encoder, "rad", "encoder")
         encoder = jnp.asarray(encoder, float)
         flat = encoder.reshape(-1, 2)
-        out = jax.vmap(self.direction)(flat)
+        if readings is None or not self.readings:
+            out = jax.vmap(self.direction)(flat)
+        else:
+            batch = encoder.shape[:-1]
+            per = {k: jnp.broadcast_to(jnp.asarray(v, float), batch).reshape(-1) for k, v in readings.items() if k in self.readings}
+            out = jax.vmap(lambda e, r: self.at_readings(r).direction(e))(flat, per)
         return out.reshape(encoder.shape[:-1] + (3,))
 
     def describe(self) -> str:

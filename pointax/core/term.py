@@ -100,8 +100,11 @@ def param(
 
 
 def param_fields(term: "Term") -> list[dataclasses.Field]:
-    """The parameter fields of ``term`` (every non-static dataclass field), in order."""
-    return [f for f in dataclasses.fields(term) if not f.metadata.get("static", False)]
+    """The parameter fields of ``term`` (every non-static dataclass field but the bound
+    readings, :meth:`Term.reading`), in order."""
+    return [
+        f for f in dataclasses.fields(term) if not f.metadata.get("static", False) and not f.metadata.get("readings")
+    ]
 
 
 def param_unit(field: dataclasses.Field) -> str:
@@ -125,9 +128,32 @@ class Term(eqx.Module):
     ``residual_form="tpoint"``), batched fits then compute ``f`` once per observation
     instead of at every step. A model refuses a term whose claim does not hold
     (:func:`check_linear_claim`), so leave it False unless it holds exactly.
+
+    A term that depends on auxiliary readings (temperature, time, ...;
+    :data:`pointax.core.readings.READINGS`) names them in :attr:`readings` and calls
+    :meth:`reading` inside its hooks::
+
+        class TubeFlexure(px.Term):
+            readings: ClassVar[tuple[str, ...]] = ("temperature",)
+            TF: float = px.terms.param(0.0)
+            TF_T: float = px.terms.param(0.0)  # radians per deg C
+
+            def sky_offset(self, angles):
+                tf = self.TF + self.TF_T * self.reading("temperature")
+                return jnp.stack([0.0 * tf, -tf * jnp.cos(angles[1])])
+
+    A term that wraps another with coefficients that vary with a reading:
+    :func:`pointax.terms.thermal`, :func:`pointax.terms.in_time`.
     """
 
     linear_sky_offset: ClassVar[bool] = False
+
+    readings: ClassVar[tuple[str, ...]] = ()
+    """Names of the auxiliary readings the term's hooks read (:meth:`reading`)."""
+
+    _bound_readings: dict | None = eqx.field(default=None, kw_only=True, metadata={"readings": True})
+    """The current observation's readings, bound by the model
+    (:meth:`pointax.Model.at_readings`) before the hooks run; not a parameter."""
 
     neutral_at_zero: ClassVar[bool | None] = None
     """True when the term with every parameter 0 leaves the pointing unchanged by
@@ -144,6 +170,22 @@ class Term(eqx.Module):
     def name(self) -> str:
         """Short name of the term (TPOINT's name for the library's TPOINT terms)."""
         return type(self).__name__
+
+    def reading(self, name: str) -> Float[Array, ""]:
+        """The current observation's value of the auxiliary reading ``name`` (one of
+        :attr:`readings`; a scalar, traced in fits), in its own unit
+        (:data:`pointax.core.readings.READINGS`)."""
+        if name not in self.readings:
+            raise ValueError(
+                f"term {self.name} reads {name!r} but does not declare it: add it to the class's "
+                f"readings (readings: ClassVar[tuple[str, ...]] = ({name!r},))"
+            )
+        if self._bound_readings is None:
+            raise ValueError(
+                f"term {self.name} reads {name!r}, but no readings were given: evaluate it through its model "
+                f"with readings (model(encoder, readings={{{name!r}: ...}}), or Observations(..., readings=...) in fits)"
+            )
+        return jnp.asarray(self._bound_readings[name], float)
 
     def encoder_offset(self, encoder: Float[Array, "2"]) -> Float[Array, "2"] | None:
         """Correction (radians) added to the nominal axis angles; sees the uncorrected

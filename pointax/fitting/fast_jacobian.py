@@ -55,7 +55,9 @@ def residuals_and_columns(
 ) -> tuple[tuple[Array, Array], list[tuple[Array, Array]]]:
     """:func:`pointax.fitting.problem.site_residuals` (weighted) and :func:`residual_columns`
     together (the sky form's fixed point gives both from one loop)."""
-    if params and model.residual_form != "tpoint" and has_sky_offsets(model, data.nominal):
+    # A model that reads auxiliary readings is evaluated row by row (problem.reading_site_residuals):
+    # its columns are forward derivatives of that evaluation.
+    if params and not model.readings and model.residual_form != "tpoint" and has_sky_offsets(model, data.nominal):
         return _sky_form_columns(model, data, params)
     return site_residuals(model, data), [_column(lambda m: site_residuals(m, data), model, p) for p in params]
 

@@ -96,10 +96,13 @@ def format_rows(indices) -> str:
 def all_residuals(model, observations) -> np.ndarray:
     """``(n, 2)`` residuals of ``model`` at every observation, masked or not:
     observed minus model, (cross-elevation, elevation) radians, in the model's
-    residual form (:func:`pointax.residuals`), evaluated in float64."""
+    residual form (:func:`pointax.residuals`), evaluated in float64. A row that lacks
+    an auxiliary reading the model reads (NaN) gets NaN."""
     from ..core.observations import Observations
 
-    obs = Observations(observations.encoder, observations.target, None, observations.convention)
+    obs = Observations(
+        observations.encoder, observations.target, None, observations.convention, getattr(observations, "readings", None)
+    )
     return np.asarray(_residuals_compiled()(model, obs), np.float64)
 
 

@@ -30,6 +30,7 @@ from jaxtyping import Array, Bool, Float
 
 from ..core.model import Model
 from ..core.observations import Observations
+from ..core.readings import model_readings
 from ..core.rotations import azel_trig, wrap_pi
 from ..core.term import SkyPoint
 from .fast_evaluation import (
@@ -49,6 +50,7 @@ __all__ = [
     "site_residuals",
     "is_affine",
     "without_pinned_singularities",
+    "reading_site_residuals",
     "Problem",
     "define_problem",
 ]
@@ -75,6 +77,15 @@ class SiteData(eqx.Module):
         sky_basis: for ``residual_form="tpoint"`` (else None): per parameter of the
             terms with ``linear_sky_offset``, in model order, its sky offset per unit
             at the observed angles as two ``(n,)`` arrays.
+        encoder: for a model that reads auxiliary readings (else None): ``(n, 2)`` raw
+            encoder readings (unused rows: the first used row's).
+        readings: for a model that reads auxiliary readings (else None): per name of
+            :attr:`pointax.Model.readings`, in order, its ``(n,)`` values (unused rows:
+            the first used row's); a tuple, not a dict, so that the data's static part
+            is hashable.
+            Such a model's residuals are evaluated observation by observation
+            (:meth:`pointax.Model.mount_direction` on the model bound to each row's
+            readings, :func:`reading_site_residuals`), not by the fast evaluation.
         library_trig: sines and cosines (of the nominal angles, and of the sky form's
             fixed point inside every evaluation) from XLA's per-element library calls
             instead of :func:`pointax.core.trig.sincos`'s vectorised polynomials: the
@@ -91,6 +102,8 @@ class SiteData(eqx.Module):
     observed: tuple[Float[Array, " n"], ...] | None = None
     sky_basis: tuple[tuple[Float[Array, " n"], Float[Array, " n"]], ...] | None = None
     library_trig: bool = eqx.field(static=True, default=False)
+    encoder: Float[Array, "n 2"] | None = None
+    readings: tuple[Float[Array, " n"], ...] | None = None
 
 
 def site_data(
@@ -143,13 +156,16 @@ def _site_geometry(model: Model, obs: Observations, used, library_trig: bool) ->
     # Separate arrays, not one (4, n) array: slices of a stacked array cost copies.
     trig = target_trig = None
     tpoint = model.residual_form == "tpoint"
-    if not tpoint or rotated(model, nominal):
+    encoder = readings = None
+    if model.readings:  # evaluated row by row with each row's readings (reading_site_residuals)
+        encoder, readings = reading, tuple(model_readings(model, obs, used).values())
+    if not tpoint or model.readings or rotated(model, nominal):
         sines = sine_function(library_trig)
         (sin1, cos1), (sin2, cos2) = sines(nominal[:, 0]), sines(nominal[:, 1])
         trig = (cos1, sin1, cos2, sin2)
     if not tpoint:
         target_trig = azel_trig(target)
-    data = SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None, library_trig)
+    data = SiteData(nominal, trig, target_trig, jnp.sqrt(weight), used, None, None, library_trig, encoder, readings)
     return data, target if tpoint else None
 
 
@@ -170,7 +186,7 @@ def is_affine(model: Model) -> bool:
     residual form with every free parameter in a term whose ``linear_sky_offset``
     holds (the chain and the other terms are then fixed). Decided from the structure,
     while tracing."""
-    return model.residual_form == "tpoint" and all(
+    return model.residual_form == "tpoint" and not model.readings and all(
         model.terms[p.term].linear_sky_offset for p in model.free_parameters
     )
 
@@ -196,8 +212,14 @@ def without_pinned_singularities(model: Model, data: SiteData, free: Bool[Array,
 
 
 def _linear_sky_parameters(model: Model) -> list[tuple[int, str]]:
-    """``(term index, field)`` of every parameter of the terms with ``linear_sky_offset``."""
-    return [(p.term, p.field) for p in model.parameters if model.terms[p.term].linear_sky_offset]
+    """``(term index, field)`` of every parameter of the terms with ``linear_sky_offset``
+    that read no auxiliary readings."""
+    # (Terms that read auxiliary readings have no unit offsets fixed by the data alone.)
+    return [
+        (p.term, p.field)
+        for p in model.parameters
+        if model.terms[p.term].linear_sky_offset and not model.terms[p.term].readings
+    ]
 
 
 def _unit_offsets(model: Model, point: SkyPoint):
@@ -231,7 +253,9 @@ def site_residuals(model: Model, data: SiteData, weighted: bool = True) -> tuple
 
 
 def _site_residuals(model: Model, data: SiteData, weighted: bool) -> tuple[Array, Array]:
-    if model.residual_form == "tpoint":
+    if model.readings:
+        rx, ry = reading_site_residuals(model, data)
+    elif model.residual_form == "tpoint":
         rx, ry = _tpoint_site_residuals(model, data)
     else:
         rx, ry = tangent_offsets(site_pointing(model, data), data.target_trig)
@@ -272,6 +296,34 @@ def _tpoint_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
         if off is not None:
             d1, d2 = d1 - off[..., 0], d2 - off[..., 1]
     return wrap_pi(d1) * cos2, wrap_pi(d2)  # both wrapped, as pointax.residuals (an over-the-pole axis 2)
+
+
+def reading_site_residuals(model: Model, data: SiteData) -> tuple[Array, Array]:
+    """The unweighted residuals of a model that reads auxiliary readings: the plain
+    forward model (:meth:`pointax.Model.mount_direction`, :meth:`~pointax.Model.chain_direction`)
+    ``vmap``-ped over the observations, each with the model bound to its own readings
+    (:meth:`pointax.Model.at_readings`). The fast evaluation's per-site arrangement
+    (rotations shared by all rows) does not hold when a term changes from row to row."""
+    if data.readings is None or data.encoder is None:
+        raise ValueError("this SiteData was built for a model without readings: rebuild it with site_data")
+    mount = model.mount
+    readings = dict(zip(model.readings, data.readings))
+    if model.residual_form == "tpoint":
+        if data.observed is None:
+            raise ValueError("this SiteData was built for residual_form='sky': rebuild it with the model")
+        a1, a2, cos2 = data.observed
+
+        def one(reading, values, observed):
+            m = model.at_readings(values)
+            d, angles = m.chain_direction(reading)
+            diff = observed - mount.angles_of(d, near=angles)
+            offset = m.sky_offset(observed)
+            return diff if offset is None else diff - offset
+
+        diff = jax.vmap(one)(data.encoder, readings, jnp.stack([a1, a2], axis=-1))
+        return wrap_pi(diff[:, 0]) * cos2, wrap_pi(diff[:, 1])
+    pointing = jax.vmap(lambda e, r: model.at_readings(r).mount_direction(e))(data.encoder, readings)
+    return tangent_offsets([pointing[:, 0], pointing[:, 1], pointing[:, 2]], data.target_trig)
 
 
 class Problem(eqx.Module):

@@ -14,6 +14,7 @@ from jaxtyping import Array, Float
 
 from ..core.model import Model
 from ..core.observations import Observations
+from ..core.readings import check_readings, model_readings
 from ..core.rotations import tangent_offset, wrap_pi
 
 __all__ = ["residuals", "as_observations", "check_convention"]
@@ -32,7 +33,11 @@ def as_observations(data) -> Observations:
 
 
 def check_convention(model: Model, obs: Observations) -> None:
-    """Raise ValueError when the observations' encoder convention is not the mount's."""
+    """Raise ValueError when the observations do not suit the model: their encoder
+    convention is not the mount's, or a used observation lacks an auxiliary reading the
+    model's terms read (:func:`pointax.core.readings.check_readings`, naming the reading
+    and the rows)."""
+    check_readings(model, obs)
     mine, theirs = model.mount.convention, obs.convention
     if mine is not None and theirs is not None and mine != theirs:
         raise ValueError(
@@ -56,7 +61,11 @@ def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     target = jnp.asarray(obs.target) @ model.mount.frame
     at_rest = model.mount.boresight
     target = jnp.where(used[:, None], target, at_rest)
-    predicted = jax.vmap(model.mount_direction)(encoder)
+    if model.readings:
+        values = model_readings(model, obs, used)
+        predicted = jax.vmap(lambda e, r: model.at_readings(r).mount_direction(e))(encoder, values)
+    else:
+        predicted = jax.vmap(model.mount_direction)(encoder)
     predicted = jnp.where(used[:, None], predicted, at_rest)
     r = -tangent_offset(predicted, target)
     return jnp.where(used[:, None], r, 0.0)
@@ -71,13 +80,15 @@ def _tpoint_residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     encoder, target = obs.filled(used)
     target = target @ mount.frame
 
-    def one(reading, direction):
-        d, angles = model.chain_direction(reading)
+    def one(reading, direction, values):
+        m = model.at_readings(values) if values is not None else model
+        d, angles = m.chain_direction(reading)
         chain = mount.angles_of(d, near=angles)
         observed = mount.angles_of(direction, near=mount.axis_angles(reading))
-        offset = model.sky_offset(observed)
+        offset = m.sky_offset(observed)
         diff = observed - chain if offset is None else observed - chain - offset
         return jnp.stack([wrap_pi(diff[0]) * jnp.cos(observed[1]), wrap_pi(diff[1])])
 
-    r = jax.vmap(one)(encoder, target)
+    values = model_readings(model, obs, used) if model.readings else None
+    r = jax.vmap(one)(encoder, target, values)
     return jnp.where(used[:, None], r, 0.0)

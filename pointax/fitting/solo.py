@@ -138,13 +138,14 @@ def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tu
     arrays (traced by ``jit``, not baked in; NumPy so that nothing small is compiled)."""
     obs = as_observations(data)
     check_convention(model, obs)
+    obs = obs.only_readings(model.readings)
     if weights is not None:
         weights = np.asarray(weights, np.float64)
         if weights.shape != (len(obs),):
             raise ValueError(f"weights must have shape ({len(obs)},), got {weights.shape}")
         if np.any(weights < 0) or not np.all(np.isfinite(weights)):
             raise ValueError("weights must be finite and non-negative")
-        obs = Observations(obs.encoder, obs.target, weights, obs.convention)
+        obs = obs.with_weight(weights)  # readings kept
     if fixed:
         model = model.fix(*fixed)
     if not np.any(np.asarray(obs.weight) > 0):

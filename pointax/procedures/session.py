@@ -145,10 +145,9 @@ class Session:
     def observations(self):
         """The run's :class:`pointax.Observations` with masked ones at weight 0 (what
         plots draw as masked)."""
-        from ..core.observations import Observations
 
         obs = self.require_run().observations
-        return Observations(obs.encoder, obs.target, self.weights(), obs.convention)
+        return obs.with_weight(self.weights())
 
     def current_caption(self) -> str:
         """The caption CAPT set, else the run's, else ``'pointax tpoint'``."""

@@ -11,7 +11,8 @@
 * :mod:`pointax.terms.polynomial`: TPOINT's polynomial terms (``PAA1``, ``PEE2``,
   ``PAA1E2``), generated from their names.
 * :mod:`pointax.terms.repertoire`: which TPOINT names are built, and why the others
-  (auxiliary-reading terms, TX10, ...) raise :class:`NotYetInPointax`.
+  (TX10, the other mount's terms, ...) raise :class:`NotYetInPointax`; auxiliary-reading terms
+  (AUX1E, ZE, A3Z ...) are :mod:`pointax.terms.tpoint_auxiliary`.
 * :mod:`pointax.terms.gpoint`: RTS2 gpoint's alt-az terms (ia ie tn te npae npoa tf),
   its German-equatorial terms (ih id ch np ma me tf fo daf)
   and its "extra" terms (``az:sincos:az;el:2;2``).
@@ -20,6 +21,9 @@
   basic, rotation-matrix (rigorous) and its linearised expansion.
 * :mod:`pointax.terms.camera`: the sun-sensor camera's mounting on the mirror.
 * :mod:`pointax.terms.heliostat_terms`: axis tilts and joint zeros of a tilt-tilt heliostat.
+* :mod:`pointax.terms.varying`: any term's coefficients as functions of an auxiliary
+  reading: ``thermal("TF")`` (linear in temperature), ``in_time("IA", reference=mjd)``
+  (a polynomial, piecewise-linear or cubic B-spline in time).
 * :class:`Term`, :func:`param`: the base class and field helper for new terms.
 
 ``tpoint("IA IE NPAE CA AN AW TF TX HACA2")``, ``gpoint_terms("ia,ie,tn,az:sin:az:2")``
@@ -117,8 +121,11 @@ _NAMES = (
 
 _SUBMODULES = (
     "camera", "equatorial", "equatorial_special", "gpoint", "harmonic", "heliostat_terms", "library", "polynomial",
-    "repertoire", "rigorous", "sun_vector", "tpoint_special", "xy",
+    "repertoire", "rigorous", "sun_vector", "tpoint_special", "xy", "varying", "tpoint_auxiliary",
 )  # fmt: skip
+
+_VARYING = ("thermal", "in_time", "VaryingTerm", "Thermal", "InTime")
+"""Loaded from :mod:`.varying` (not through :mod:`.library`)."""
 
 # Every public name loads from :mod:`.library`, which imports the term modules: importing
 # :mod:`pointax.core.term` (the term interface, as the core does) loads no particular term.
@@ -126,6 +133,8 @@ _SUBMODULES = (
 # ``tpoint_terms``: no module is named like an exported name). The
 # equatorial TF (its name is the alt-az TF's) is ``pointax.terms.equatorial.TF``.
 _EXPORTS = {name: "library" for name in _NAMES if name not in _SUBMODULES}
+_EXPORTS.update({name: "varying" for name in _VARYING})
+_EXPORTS["auxiliary_term"] = "tpoint_auxiliary"  # TPOINT's AUX1H ... AUX2E, ZH, ZE, A1H ... A3Z
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, _SUBMODULES)
 
-__all__ = list(_NAMES)
+__all__ = list(_NAMES) + list(_VARYING) + ["auxiliary_term"]
