@@ -112,9 +112,9 @@ def _(tmp):
     _read_run(_mmt_with(tmp, FIRST_OBS, text="192.3 77.3 -167.2"))
 
 
-@case("tpoint-six-fields", "error", rf"run\.dat:{FIRST_OBS}:", "6 fields", error=FileFormatError)
-def _(tmp):
-    _read_run(_mmt_with(tmp, FIRST_OBS, text="192.3 77.3 -167.2 77.3 1 2"))
+@case("tpoint-eight-fields", "error", rf"run\.dat:{FIRST_OBS}:", "8 fields", error=FileFormatError)
+def _(tmp):  # four fields and four trailing numbers: one more than TPOINT's three auxiliary readings
+    _read_run(_mmt_with(tmp, FIRST_OBS, text="192.3 77.3 -167.2 77.3 1 2 3 4"))
 
 
 @case("tpoint-mixed-columns", "error", rf"run\.dat:{FIRST_OBS + 1}:", "5 fields, earlier records have 4", error=FileFormatError)

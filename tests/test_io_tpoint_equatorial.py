@@ -232,8 +232,8 @@ def test_bad_equatorial_records_name_line_and_field(tmp_path, row, match):
 
 
 def test_unknown_record_width_lists_the_layouts(tmp_path):
-    path = write(tmp_path, EQ_HEADER + ["1 2 3 4 5 6 7"])
-    with pytest.raises(TpointFormatError, match=r"run\.dat:4: observation record has 7 fields; an equatorial record has 4 fields"):
+    path = write(tmp_path, EQ_HEADER + ["1 2 3 4 5 6 7 8 9 10"])  # 5 decimal fields + 3 auxiliary readings at most
+    with pytest.raises(TpointFormatError, match=r"run\.dat:4: observation record has 10 fields; an equatorial record has 4 fields"):
         read_tpoint(path)
 
 

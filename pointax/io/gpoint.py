@@ -74,6 +74,9 @@ Where pointax is stricter than gpoint (gpoint would crash, misread or silently d
   of them only? a mistyped field?), in every format, as for TPOINT runs;
 * blank lines are skipped (gpoint would stop with an unpacking error).
 
+The time field becomes the reading ``time`` (``run.readings``, ``run.observations.readings``),
+MJD in UTC days: a JD (above 2,000,000, as RTS2 writes it) is converted.
+
 Every error is a :class:`GpointFormatError` naming the file, line and field.
 """
 
@@ -99,6 +102,7 @@ from .gpoint_model import (  # the model files' names: importable from here, as 
     read_gpoint_model,
     write_gpoint_model,
 )
+from .run_readings import mjd_from_jd_or_mjd
 from .sanity import (
     ROW_SEPARATION_DEG,
     check_azimuth,
@@ -229,6 +233,10 @@ class GpointRun:
     """GEM: ``(n,)`` True where the row is on the flipped side of the pier (the mount's
     Dec beyond +-90 deg: gpoint's ``--flip east`` keeps these rows, ``--flip west`` those
     with ``|Dec| < 90``); None for alt-az runs."""
+    readings: dict = dataclasses.field(default_factory=dict)
+    """Auxiliary readings (also ``observations.readings``): ``time``, each row's field 2
+    as MJD (UTC days): a value above 2,000,000 is a Julian date (RTS2's writers put the
+    JD there), converted; below, an MJD as gpoint names the field."""
 
     def __len__(self) -> int:
         return self.encoder.shape[0]
@@ -321,6 +329,7 @@ def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:
         ids=tuple(ids),
         time=v[:, 0],
         lines=np.asarray(line_numbers),
+        readings={"time": mjd_from_jd_or_mjd(v[:, 0])},
     )
     if kind in _EQUATORIAL_KINDS:
         return _gem_run(path, v, line_numbers, latitude, record, common)
@@ -383,7 +392,7 @@ def parse_gpoint(text: str, path: str = "<string>") -> GpointRun:
         observed=observed,
         columns=columns,
         azimuth=GPOINT_AZIMUTH,
-        observations=Observations(encoder, target, convention=GPOINT_AZIMUTH),
+        observations=Observations(encoder, target, convention=GPOINT_AZIMUTH, readings=common["readings"]),
         mount="altaz",
     )
 
@@ -465,7 +474,7 @@ def _gem_run(path, v, line_numbers, latitude_deg, record, common) -> GpointRun:
             "axis_dec": ax_dec,
         },
         azimuth=None,
-        observations=Observations(encoder, target, convention="ha-dec"),
+        observations=Observations(encoder, target, convention="ha-dec", readings=common["readings"]),
         mount="gem",
         flipped=flipped,
     )

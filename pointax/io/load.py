@@ -36,7 +36,7 @@ RUN_FORMATS = ("tpoint", "gpoint", "paint", "sun", "xy", "offsets")
 """The formats :func:`load_run` reads."""
 
 RUN_OPTIONS: dict[str, tuple[str, ...]] = {
-    "tpoint": ("azimuth", "mount", "refraction"),
+    "tpoint": ("azimuth", "mount", "refraction", "auxiliary"),
     "gpoint": (),
     "paint": ("focal_spot", "tower", "mirror_offset"),
     "sun": (),
@@ -182,7 +182,7 @@ def load_run(path: str | os.PathLike, format: str | None = None, **options: Any)
         format: one of :data:`RUN_FORMATS`, or None to tell it from the file
             (:func:`detect_format`).
         **options: the format's reader options (:data:`RUN_OPTIONS`): tpoint
-            ``azimuth``, ``mount``, ``refraction`` (:func:`pointax.io.read_tpoint`); paint ``focal_spot``,
+            ``azimuth``, ``mount``, ``refraction``, ``auxiliary`` (:func:`pointax.io.read_tpoint`); paint ``focal_spot``,
             ``tower``, ``mirror_offset`` (:func:`pointax.io.read_paint`); offsets
             ``columns``, ``units``, ``azimuth``, ``cross_elevation``, ``sign``
             (:func:`pointax.io.read_offsets`).
@@ -190,7 +190,9 @@ def load_run(path: str | os.PathLike, format: str | None = None, **options: Any)
     Returns:
         The format's run (:class:`~pointax.io.TpointRun`, :class:`~pointax.io.GpointRun`,
         :class:`~pointax.io.PaintRun`, :class:`~pointax.io.SunRun`,
-        :class:`~pointax.io.XYRun`); each has ``.observations``.
+        :class:`~pointax.io.XYRun`); each has ``.observations``, whose ``readings``
+        hold what the file records beside the positions (TPOINT's auxiliary fields and
+        run weather, an offsets table's other columns, gpoint's and PAINT's times).
 
     Raises:
         FileNotFoundError: nothing at ``path``.

@@ -34,6 +34,10 @@ __all__ = [
     "role_of",
     "header_fields",
     "parse_columns_option",
+    "READING_NAMES",
+    "READING_UNITS",
+    "reading_of",
+    "reading_unit",
 ]
 
 UNIT_NAMES = ("arcsec", "arcmin", "deg", "rad")
@@ -153,6 +157,102 @@ def header_fields(record: str, csv: bool) -> list[str]:
         else:
             fields.append(token)
     return fields
+
+
+# ------------------------------------------------------------------ auxiliary readings
+
+READING_NAMES = {
+    "temperature": {
+        "temperature", "temp", "t_air", "tair", "air_temp", "air_temperature", "temp_air", "ambient_temperature",
+        "ambient_temp", "t_amb", "tamb", "t_ambient", "outside_temperature", "outside_temp", "temperature_air",
+    },
+    "pressure": {
+        "pressure", "press", "p_air", "pair", "air_pressure", "pressure_air", "barometric_pressure", "baro",
+        "barometer", "atm_pressure", "atmospheric_pressure",
+    },
+    "humidity": {"humidity", "hum", "rh", "relative_humidity", "rel_humidity", "humidity_rel"},
+    "rotator": {"rotator", "rot", "rotator_angle", "rot_angle", "rotangle", "rotator_position", "rot_pos"},
+    "tilt_1": {"tilt_1", "tilt1", "tilt_x", "tiltx", "tilt_a", "tilta"},
+    "tilt_2": {"tilt_2", "tilt2", "tilt_y", "tilty", "tilt_b", "tiltb"},
+    "time": {
+        "time", "mjd", "time_mjd", "mjd_utc", "mjd_obs", "jd", "time_jd", "date", "datetime", "date_time", "utc",
+        "time_utc", "utc_time", "timestamp", "obs_time", "time_obs", "date_obs", "obs_date", "epoch", "unix_time",
+    },
+}  # fmt: skip
+"""Standard reading (:data:`pointax.core.readings.READINGS`) -> the header names
+(normalised: :func:`normalise`) an offsets table's extra column may carry for it."""
+_READING_OF = {n: reading for reading, names in READING_NAMES.items() for n in names}
+
+READING_UNITS = {
+    "temperature": {
+        "c": ("deg C", 1.0, 0.0), "degc": ("deg C", 1.0, 0.0), "deg_c": ("deg C", 1.0, 0.0), "°c": ("deg C", 1.0, 0.0),
+        "celsius": ("deg C", 1.0, 0.0), "k": ("K", 1.0, -273.15), "kelvin": ("K", 1.0, -273.15),
+        "f": ("deg F", 5.0 / 9.0, -32.0 * 5.0 / 9.0), "degf": ("deg F", 5.0 / 9.0, -32.0 * 5.0 / 9.0),
+        "°f": ("deg F", 5.0 / 9.0, -32.0 * 5.0 / 9.0),
+    },
+    "pressure": {
+        "hpa": ("hPa", 1.0, 0.0), "mbar": ("mbar", 1.0, 0.0), "mb": ("mb", 1.0, 0.0), "millibar": ("mbar", 1.0, 0.0),
+        "pa": ("Pa", 0.01, 0.0), "kpa": ("kPa", 10.0, 0.0), "mmhg": ("mmHg", 1.33322387415, 0.0),
+        "torr": ("Torr", 1.33322368421, 0.0), "inhg": ("inHg", 33.8638866667, 0.0), "bar": ("bar", 1000.0, 0.0),
+    },
+    "humidity": {
+        "%": ("%", 0.01, 0.0), "percent": ("%", 0.01, 0.0), "pct": ("%", 0.01, 0.0), "fraction": ("fraction", 1.0, 0.0),
+        "1": ("fraction", 1.0, 0.0),
+    },
+}  # fmt: skip
+"""Standard reading -> unit word (lower case) -> ``(unit, scale, shift)``: the value in
+the standard unit is ``scale * value + shift``."""
+
+
+_READING_SUFFIX = re.compile(
+    r"^(?P<base>.+?)[_\s\-]+(?P<unit>hpa|mbar|kpa|pa|mmhg|degc|degf|celsius|kelvin|percent|pct|mjd|jd)$", re.IGNORECASE
+)
+
+
+def _reading_parts(name: str) -> tuple[str, str | None, str | None]:
+    """``(normalised base, angle unit, unit as written)`` of a header name, with the
+    unit words of readings (``pressure_hpa``, ``temp_kelvin``) also taken off as a suffix."""
+    base, unit, written = split_unit(name)
+    if written is None:
+        m = _READING_SUFFIX.match(base.strip())
+        if m:
+            base, written = m.group("base"), m.group("unit")
+    return re.sub(r"[\s\-./]+", "_", base.lower()).strip("_"), unit, written
+
+
+def reading_of(name: str) -> str | None:
+    """The standard reading an offsets table's header name stands for (``"T_air [C]"``
+    -> ``"temperature"``, ``"MJD"`` -> ``"time"``, ``"pressure_hpa"`` -> ``"pressure"``),
+    or None."""
+    base, _, written = _reading_parts(name)
+    if written is not None and written.lower() in ("mjd", "jd") and base in READING_NAMES["time"]:
+        return "time"
+    return _READING_OF.get(base)
+
+
+def reading_unit(reading: str, name: str) -> tuple[str, float, float] | None:
+    """``(unit, scale, shift)`` of the unit a header name ``name`` gives the standard
+    reading ``reading`` (``"T_air [K]"``), None when it gives none. For ``time`` the
+    unit is returned as written (``("mjd", 1, 0)``, ``("jd", 1, 0)``) for the reader.
+
+    Raises:
+        ValueError: for a unit this reading does not take.
+    """
+    _, unit, written = _reading_parts(name)
+    if written is None:
+        return None
+    word = written.strip().lower().replace(" ", "")
+    if reading == "time":
+        if word in ("mjd", "jd", "iso", "utc", "s", "unix"):
+            return (word, 1.0, 0.0)
+        raise ValueError(f"unit {written!r} is not one pointax reads for time (mjd, jd, unix, iso)")
+    table = READING_UNITS.get(reading)
+    if table is not None and word in table:
+        return table[word]
+    if reading in ("rotator", "tilt_1", "tilt_2") and unit is not None:
+        return (unit, 1.0, 0.0)  # an angle unit: converted by the reader
+    known = ", ".join(sorted(table)) if table else "none"
+    raise ValueError(f"unit {written!r} is not one pointax reads for {reading} (units it reads: {known})")
 
 
 # ------------------------------------------------------------------ the command line's --columns

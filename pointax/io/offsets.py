@@ -69,6 +69,26 @@ Conventions (stated once, tested in ``tests/test_io_offsets.py``):
   are relative: the fit's Sky RMS and parameter sigmas keep their meaning (TPOINT
   scales sigmas by the residuals, so only the ratios of the weights matter).
 
+**Auxiliary readings.** Every other column of a table with a header line is an
+auxiliary reading (``run.readings``, ``run.observations.readings``), one value per row:
+
+* a header name that stands for a standard reading (:data:`pointax.core.readings.READINGS`)
+  is read as it: ``temperature temp T_air air_temp t_amb`` (deg C; ``[K]``, ``[F]``
+  converted), ``pressure press p_air baro`` (hPa; ``[Pa]``, ``[kPa]``, ``[mmHg]`` ...
+  converted), ``humidity hum rh`` (0-1; ``[%]``, or values above 1, read as percent),
+  ``rotator rot rot_angle``, ``tilt_1 tilt_x``, ``tilt_2 tilt_y`` (degrees, or the angle
+  unit of the header, converted to radians), ``time mjd jd date utc timestamp date_obs``
+  (MJD, UTC: ISO 8601 text such as ``2021-08-21T13:05:00Z``, or numbers: MJD, JD or Unix
+  seconds as the header says, ``time [jd]``, else by their size); the full lists are
+  :data:`pointax.io.offset_columns.READING_NAMES`. Two columns that could both be one
+  reading keep their header names;
+* any other column of numbers keeps its header name as written (unit unknown);
+* an empty field, ``nan`` or ``-`` is "not recorded" (NaN); another non-number is an
+  error naming the file, line and column; a column whose first value is text (a source
+  name) is not a reading.
+
+``run.notes`` says what was assumed (units taken by default, text columns).
+
 The result's ``observations`` (:class:`pointax.Observations`) hold the raw position as
 the encoder reading, in radians in the file's azimuth convention (``azimuth``), and the
 observed direction ``raw + offset`` as an East-North-Up unit vector, ready for
@@ -93,7 +113,8 @@ from ..core.observations import Observations
 from ..core.rotations import azel_to_enu_numpy
 from ..core.units import ARCSEC, DEG
 from .errors import FileFormatError, file_errors
-from .offset_columns import UNIT_NAMES, header_fields, normalise, role_of, split_unit
+from .offset_columns import UNIT_NAMES, header_fields, normalise, reading_of, reading_unit, role_of, split_unit
+from .run_readings import JD_MINUS_MJD, as_readings, mjd_from_iso
 from .sanity import check_azimuth, check_not_radians, check_observed_elevation, check_offsets_scale, warn_duplicates
 from .text import is_number, read_text
 
@@ -164,6 +185,10 @@ class OffsetsRun:
             file's azimuth convention.
         column_units: role -> unit of every column used, as read (from the header,
             ``units`` or the defaults: degrees for positions, arcsec for offsets).
+        readings: auxiliary readings from the header's other columns, name ->
+            ``(n,)`` float64 (also ``observations.readings``; see :func:`read_offsets`).
+        reading_columns: reading name -> ``(1-based column number, header name)``.
+        notes: what the reader assumed about the readings, one sentence each.
     """
 
     path: str
@@ -179,6 +204,9 @@ class OffsetsRun:
     lines: np.ndarray
     observations: Observations
     column_units: dict[str, str] = dataclasses.field(default_factory=dict)
+    readings: dict = dataclasses.field(default_factory=dict)
+    reading_columns: dict[str, tuple[int, str]] = dataclasses.field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     @property
     def observed(self) -> np.ndarray:
@@ -500,6 +528,7 @@ def parse_offsets(
     frame = np.asarray(AZIMUTH_CONVENTIONS[azimuth])
     target = azel_to_enu_numpy(observed_az, el_obs) @ frame.T
     offset_units = {unit_of[r] for r in _OFFSET_COLUMNS if r in unit_of}
+    readings, reading_columns, notes = _readings(path, header, header_line, mapping, records, csv, lines)
     return OffsetsRun(
         path=path,
         columns={role: (k + 1, name) for role, (k, name) in sorted(mapping.items(), key=lambda kv: kv[1][0])},
@@ -512,9 +541,116 @@ def parse_offsets(
         errors=errors,
         weight=weight,
         lines=np.asarray(lines),
-        observations=Observations(raw, target, weight, convention=azimuth),
+        observations=Observations(raw, target, weight, convention=azimuth, readings=readings),
         column_units={role: unit_of[role] for role in OFFSET_ROLES if role in unit_of},
+        readings=readings,
+        reading_columns=reading_columns,
+        notes=notes,
     )
+
+
+_ANGLE_READINGS = ("rotator", "tilt_1", "tilt_2")
+_MISSING = ("", "nan", "na", "n/a", "-", "null", "none")
+"""Fields of a reading column that mean "not recorded" (NaN)."""
+
+
+def _readings(path, header, header_line, mapping, records, csv: bool, lines):
+    """The readings of a header's columns that no role uses, their columns and notes
+    (see :func:`read_offsets`)."""
+    if header is None:
+        return {}, {}, ()
+    used = {k for k, _ in mapping.values()}
+    rows = [_split(body, csv) for _, body in records]
+    candidates = [k for k in range(len(header)) if k not in used]
+    standard = {k: reading_of(header[k]) for k in candidates}
+    counts: dict[str, int] = {}
+    for k, name in standard.items():
+        if name:
+            counts[name] = counts.get(name, 0) + 1
+    readings, columns, notes = {}, {}, []
+    for k in candidates:
+        where = f"column {k + 1} ({header[k]})"
+        first = rows[0][k].strip()
+        name = standard[k]
+        if name and counts[name] > 1:
+            others = ", ".join(f"column {j + 1} ({header[j]})" for j in candidates if standard[j] == name and j != k)
+            notes.append(f"{where} and {others} could each be {name!r}: kept under their header names")
+            name = None
+        text_column = not is_number(first) and first.lower() not in _MISSING
+        if text_column and name != "time":
+            notes.append(f"{where} holds text ({first!r}): not a reading")
+            continue
+        key = name or header[k].strip()
+        if key in readings:
+            raise OffsetsFormatError(path, header_line, f"a second column is named {key!r}", where)
+        readings[key] = _reading_values(path, header_line, records, rows, k, where, name, header[k], notes)
+        columns[key] = (k + 1, header[k])
+    return as_readings(readings, len(lines)), columns, tuple(notes)
+
+
+def _reading_values(path, header_line, records, rows, k, where, name, header_name, notes) -> np.ndarray:
+    """The values of reading column ``k`` in its standard unit (``name``) or as written."""
+    try:
+        unit = reading_unit(name, header_name) if name else None
+    except ValueError as e:
+        raise OffsetsFormatError(path, header_line, str(e), where) from None
+    if name == "time":
+        return _times(path, records, rows, k, where, header_name, unit, notes)
+    values = np.empty(len(rows))
+    for i, ((lineno, _), fields) in enumerate(zip(records, rows)):
+        token = fields[k].strip()
+        if token.lower() in _MISSING:
+            values[i] = math.nan
+            continue
+        try:
+            v = float(token)
+        except ValueError:
+            raise OffsetsFormatError(path, lineno, f"{token!r} is not a number (an empty field or 'nan' means not recorded)", where) from None
+        if not math.isfinite(v):
+            raise OffsetsFormatError(path, lineno, f"{token!r} is not finite", where)
+        values[i] = v
+    if name in _ANGLE_READINGS:
+        scale = OFFSET_UNITS[unit[0]] if unit else DEG
+        if unit is None:
+            notes.append(f"{where}: {name} read in degrees (no unit in the header)")
+        return values * scale
+    if name == "humidity" and unit is None and np.nanmax(np.abs(values), initial=0.0) > 1.0:
+        notes.append(f"{where}: humidity above 1 read as percent (no unit in the header)")
+        return values / 100.0
+    if unit is not None:
+        return unit[1] * values + unit[2]
+    return values
+
+
+def _times(path, records, rows, k, where, header_name, unit, notes) -> np.ndarray:
+    """A time column as MJD (days, UTC): ISO 8601 text, or numbers: MJD, JD or Unix
+    seconds, from the header's unit or name, else from their size."""
+    base = normalise(header_name)
+    kind = unit[0] if unit else ("mjd" if "mjd" in base else "jd" if "jd" in base else "unix" if base in ("unix_time", "epoch") else None)
+    values = np.empty(len(rows))
+    guessed = set()
+    for i, ((lineno, _), fields) in enumerate(zip(records, rows)):
+        token = fields[k].strip()
+        if token.lower() in _MISSING:
+            values[i] = math.nan
+            continue
+        if not is_number(token):
+            try:
+                values[i] = mjd_from_iso(token)
+            except ValueError as e:
+                raise OffsetsFormatError(path, lineno, str(e), where) from None
+            continue
+        v = float(token)
+        if not math.isfinite(v):
+            raise OffsetsFormatError(path, lineno, f"{token!r} is not finite", where)
+        this = kind or ("unix" if v > 1e8 else "jd" if v > 2e6 else "mjd")
+        if kind is None:
+            guessed.add(this)
+        values[i] = v - JD_MINUS_MJD if this == "jd" else v / 86400.0 + 40587.0 if this in ("unix", "s") else v
+    if guessed:
+        said = {"mjd": "MJD", "jd": "Julian dates", "unix": "Unix seconds"}
+        notes.append(f"{where}: numbers read as {', '.join(said[g] for g in sorted(guessed))} by their size (name the unit: 'time [mjd]')")
+    return values
 
 
 @file_errors(OffsetsFormatError)
@@ -548,7 +684,9 @@ def read_offsets(
             offset) or ``"raw-observed"`` (the table holds corrections).
 
     Returns:
-        :class:`OffsetsRun`; its ``observations`` go straight into :func:`pointax.fit`.
+        :class:`OffsetsRun`; its ``observations`` go straight into :func:`pointax.fit`,
+        with the table's other columns as auxiliary readings (``run.readings``: see the
+        module docstring).
 
     Raises:
         OffsetsFormatError: naming file, line and column of the first bad value, or

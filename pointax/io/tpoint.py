@@ -13,9 +13,9 @@ Input file layout (as TPOINT reads it)::
                                                date, temperature C, pressure mB,
                                                height m, humidity, wavelength, lapse
     192.386 77.347 -167.278 77.348             observed az, el, raw encoder az, el
-    ...                                        (degrees, or d m s; an optional 5th
-    END                                         number, e.g. a rotator angle, is kept
-                                                as `extra`; END is optional)
+    ...                                        (degrees, or d m s), then up to three
+    END                                        auxiliary readings (a rotator angle, a
+                                               temperature ...); END is optional
 
 An equatorial run (``: EQUAT``, ``: GERMAN`` or ``: FORK``) has records of star RA, Dec,
 telescope RA, Dec and sidereal time::
@@ -24,6 +24,12 @@ telescope RA, Dec and sidereal time::
 
 (``h m s  d m s  h m s  d m s  h m.m``; or decimal hours and degrees; hour angles
 instead of RA without the sidereal time: see :func:`read_tpoint`).
+
+**Auxiliary readings** (``run.readings``, also in ``run.observations.readings``): up to
+three numbers after the positions of a record are TPOINT's auxiliary readings (its term
+routines take ``auxil[3]``), ``aux1``, ``aux2``, ``aux3`` as written; the run
+parameters' temperature, pressure and humidity, and the date (MJD at 0h UTC) are per-run
+readings of every record. See :func:`read_tpoint`.
 
 Any malformed record raises :class:`TpointFormatError`, whose message names the file,
 the line and the field.
@@ -34,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -63,6 +70,7 @@ from .tpoint_model import (  # noqa: F401  (the model files' names: importable f
     refraction_arcsec,
     write_model,
 )
+from .run_readings import as_readings, mjd_from_date, per_run
 from .tpoint_records import (  # noqa: F401  (the option names: importable from here, as before)
     ALTAZ_OPTION,
     EQUATORIAL_OPTIONS,
@@ -112,6 +120,16 @@ RUN_PARAMETER_FIELDS = (
     "wavelength (micron)",
     "lapse rate (K/m)",
 )
+
+MAX_AUXILIARY = 3
+"""Auxiliary readings a TPOINT observation record may carry after its positions
+(P. T. Wallace's term routines ``tptPterms`` and ``tptPtermg`` take ``auxil[3]``)."""
+AUXILIARY_NAMES = tuple(f"aux{k}" for k in range(1, MAX_AUXILIARY + 1))
+"""The readings' names of the auxiliary fields by position, as TPOINT's terms
+``AUX1H`` ... ``AUX2E`` and ``A1x`` ... ``A3x`` read them (:mod:`pointax.terms.tpoint_auxiliary`)."""
+ANGLE_READINGS = frozenset({"rotator", "tilt_1", "tilt_2"})
+"""Standard readings in radians: an auxiliary field given one of these names is read in
+degrees, as TPOINT files write angles, and converted."""
 
 
 def _altaz_layout(width: int) -> tuple[Group, ...]:
@@ -185,8 +203,8 @@ class TpointRun:
     file's convention; equatorial, the telescope's hour angle and declination as written
     (beyond +-pi/2 on the other side of the pier)."""
     extra: np.ndarray
-    """``(n, k)`` further numbers per row after the positions (k = 0 or 1: an auxiliary
-    reading such as a rotator angle), as written."""
+    """``(n, k)`` further numbers per row after the positions (k = 0 to 3: TPOINT's
+    auxiliary readings, such as a rotator angle), as written."""
     lines: np.ndarray
     """``(n,)`` line number of each observation in the file."""
     azimuth: str
@@ -212,6 +230,16 @@ class TpointRun:
     one (not used by any fit)."""
     option_records: tuple[OptionRecord, ...] = ()
     """The option records with their arguments and line numbers."""
+    readings: dict = dataclasses.field(default_factory=dict)
+    """Auxiliary readings, name -> ``(n,)`` float64 (also ``observations.readings``):
+    ``aux1`` ... ``aux3``, the auxiliary fields as written; ``rotator`` (radians) with a
+    rotator option; any names given with ``auxiliary=`` (standard units); per run, from
+    the run-parameters record, ``temperature`` (deg C), ``pressure`` (hPa = mB),
+    ``humidity`` (0-1) and ``time`` (the date's MJD at 0h UTC: the record gives no time
+    of day), where it gives them."""
+    notes: tuple[str, ...] = ()
+    """What the reader assumed about the readings (e.g. auxiliary fields with no name
+    but their position), one sentence each."""
 
     @property
     def latitude(self) -> float:
@@ -262,6 +290,12 @@ def _run_parameters(path: str, lineno: int, tokens: list[str]) -> RunParameters:
         date = tuple(int(round(x)) for x in v[3:6])
         if not (1 <= date[1] <= 12 and 1 <= date[2] <= 31):
             raise TpointFormatError(path, lineno, f"{record}: date {tokens[3]} {tokens[4]} {tokens[5]} is not year month day")
+        try:
+            mjd_from_date(*date)
+        except ValueError:
+            raise TpointFormatError(
+                path, lineno, f"{record}: fields 4-6 (date) {tokens[3]} {tokens[4]} {tokens[5]} is not a date"
+            ) from None
     optional = v[6:] + [None] * (len(RUN_PARAMETER_FIELDS) - max(len(v), 6))
     return RunParameters(latitude, date, *optional)
 
@@ -290,17 +324,19 @@ def _mount_of(path: str, lineno: int, options: list[OptionRecord], mount: str | 
     return in_file or mount
 
 
-def _layout(path: str, lineno: int, mount: str, n: int) -> tuple[tuple[Group, ...], bool]:
-    """The record layout for ``n`` fields and whether the last field is an extra column."""
+def _layout(path: str, lineno: int, mount: str, n: int) -> tuple[tuple[Group, ...], int]:
+    """The record layout for ``n`` fields and the number of auxiliary fields after it:
+    the widest layout that leaves at most :data:`MAX_AUXILIARY` fields."""
     layouts = ALTAZ_LAYOUTS if mount == "altaz" else EQUATORIAL_LAYOUTS
-    if n in layouts:
-        return layouts[n], False
-    if n - 1 in layouts:
-        return layouts[n - 1], True
+    fits = [k for k in layouts if 0 <= n - k <= MAX_AUXILIARY]
+    if fits:
+        k = max(fits)
+        return layouts[k], n - k
     described = "; ".join(f"{k} fields: {_describe(v)}" for k, v in sorted(layouts.items()))
     raise TpointFormatError(
         path, lineno, f"observation record has {n} fields; an {'alt-az' if mount == 'altaz' else 'equatorial'} "
-        f"record has {described} (each optionally followed by one more number, e.g. a rotator angle)"
+        f"record has {described} (each optionally followed by up to {MAX_AUXILIARY} auxiliary readings, e.g. a "
+        "rotator angle)"
     )
 
 
@@ -358,8 +394,10 @@ def parse_tpoint(
     azimuth: str = "N-E",
     mount: str | None = None,
     refraction: tuple[float, float] | None = None,
+    auxiliary: Sequence[str | None] | None = None,
 ) -> TpointRun:
     """Parse the text of a TPOINT input file (see :func:`read_tpoint`)."""
+    auxiliary = _check_auxiliary_names(auxiliary)
     if azimuth not in AZIMUTH_CONVENTIONS:
         raise ValueError(f"unknown azimuth convention {azimuth!r}; expected one of {sorted(AZIMUTH_CONVENTIONS)}")
     if mount is not None and mount not in MOUNTS:
@@ -369,7 +407,7 @@ def parse_tpoint(
     params = None
     kind = None
     rows, extra, lines = [], [], []
-    layout = n_columns = has_extra = None
+    layout = n_columns = n_aux = None
     for lineno, line in records(text, path):
         if caption is None:
             caption = line
@@ -389,17 +427,17 @@ def parse_tpoint(
             continue
         if n_columns is None:
             n_columns = len(tokens)
-            layout, has_extra = _layout(path, lineno, kind, n_columns)
+            layout, n_aux = _layout(path, lineno, kind, n_columns)
         elif len(tokens) != n_columns:
             raise TpointFormatError(
                 path, lineno, f"observation record has {len(tokens)} fields, earlier records have {n_columns}"
             )
         v = _record_values(path, lineno, tokens, layout)
         (_check_altaz if kind == "altaz" else _check_equatorial)(path, lineno, v, layout)
-        if has_extra:
-            extra.append(record_numbers(path, lineno, tokens[-1:], ("extra",), "observation record", first=n_columns))
-        else:
-            extra.append([])
+        first_aux = n_columns - n_aux
+        names = tuple(f"auxiliary reading {k}" + (f", {auxiliary[k - 1]}" if k <= len(auxiliary) and auxiliary[k - 1] else "")
+                      for k in range(1, n_aux + 1))
+        extra.append(record_numbers(path, lineno, tokens[first_aux:], names, "observation record", first=first_aux + 1))
         rows.append(v)
         lines.append(lineno)
     if caption is None:
@@ -414,7 +452,8 @@ def parse_tpoint(
         check_not_radians(TpointFormatError, path, lines, _radian_looking_columns(kind, layout, values))
     warn_duplicates(path, np.column_stack([values, extras]), lines)
     keywords = [o.keyword for o in options]
-    rotator = _rotator(path, lines, keywords, extras, n_columns)
+    rotator = _rotator(path, lines, keywords, extras, n_columns - n_aux + 1)
+    readings, notes = _readings(path, lines, params, extras, rotator, auxiliary, n_columns - n_aux + 1)
     constants = _refraction_constants(params) if refraction is None else tuple(float(x) for x in refraction)
     common = dict(
         path=path,
@@ -427,6 +466,8 @@ def parse_tpoint(
         mount=kind,
         rotator=rotator,
         refraction=constants,
+        readings=readings,
+        notes=notes,
     )
     if kind == "altaz":
         data = values * DEG
@@ -439,7 +480,7 @@ def parse_tpoint(
             observed=observed,
             encoder=encoder,
             azimuth=azimuth,
-            observations=Observations(encoder, target, convention=azimuth),
+            observations=Observations(encoder, target, convention=azimuth, readings=readings),
             refraction_applied=False,
             **common,
         )
@@ -458,7 +499,7 @@ def _radian_looking_columns(kind: str, layout, values: np.ndarray) -> dict:
     }
 
 
-def _rotator(path: str, lines: list[int], options: list[str], extras: np.ndarray, n_columns: int) -> np.ndarray | None:
+def _rotator(path: str, lines: list[int], options: list[str], extras: np.ndarray, field: int) -> np.ndarray | None:
     said = sorted(ROTATOR_OPTIONS.intersection(options))
     if not said:
         return None
@@ -469,11 +510,77 @@ def _rotator(path: str, lines: list[int], options: list[str], extras: np.ndarray
     warn_input(
         path,
         int(lines[0]),
-        f"option {said[0]}: the rotator angle (field {n_columns}) is kept as run.rotator but pointax models no "
-        "rotator terms, so it does not enter the fit",
+        f"option {said[0]}: the rotator angle (field {field}) is kept as run.rotator and as the reading "
+        "'rotator' (radians); it enters a fit only through a term that reads 'rotator'",
         stacklevel=5,
     )
     return extras[:, 0] * DEG
+
+
+def _check_auxiliary_names(auxiliary) -> tuple[str | None, ...]:
+    if auxiliary is None:
+        return ()
+    if isinstance(auxiliary, str):
+        auxiliary = (auxiliary,)
+    names = tuple(auxiliary)
+    if len(names) > MAX_AUXILIARY:
+        raise ValueError(f"auxiliary names {len(names)} fields; a TPOINT record carries at most {MAX_AUXILIARY} auxiliary readings")
+    for name in names:
+        if name is not None and (not isinstance(name, str) or not name.strip()):
+            raise ValueError(f"auxiliary: each name must be a non-empty string or None, got {name!r}")
+    given = [n for n in names if n]
+    if len(set(given)) < len(given):
+        raise ValueError(f"auxiliary: a name is given twice in {names!r}")
+    for k, name in enumerate(names):
+        if name in AUXILIARY_NAMES and name != AUXILIARY_NAMES[k]:
+            raise ValueError(f"auxiliary: {name!r} names field {k + 1}'s reading, but {name} is the name of field "
+                             f"{AUXILIARY_NAMES.index(name) + 1}'s by position")
+    return tuple(n.strip() if n else None for n in names)
+
+
+def _readings(path, lines, params: RunParameters, extras: np.ndarray, rotator, auxiliary, first_field: int):
+    """The run's readings and the notes on what was assumed (see :attr:`TpointRun.readings`)."""
+    n, k = extras.shape
+    readings = {AUXILIARY_NAMES[j]: extras[:, j].copy() for j in range(k)}
+    notes = []
+    if len(auxiliary) > k:
+        raise TpointFormatError(
+            path, int(lines[0]), f"auxiliary= names {len(auxiliary)} auxiliary readings, but the records carry {k} "
+            f"(fields after the positions)"
+        )
+    unnamed = [j for j in range(k) if not (j < len(auxiliary) and auxiliary[j])]
+    if rotator is not None:
+        readings["rotator"] = rotator
+        unnamed = [j for j in unnamed if j != 0]
+    if unnamed:
+        fields = ", ".join(f"field {first_field + j} -> {AUXILIARY_NAMES[j]}" for j in unnamed)
+        notes.append(
+            f"auxiliary readings known only by their position ({fields}): kept as written under those names, "
+            "which TPOINT's auxiliary terms (AUX1H ... AUX2E, A1A ...) read; name them with auxiliary=(...)"
+        )
+    header = {
+        "temperature": params.temperature_c,
+        "pressure": params.pressure_mb,
+        "humidity": params.humidity,
+        "time": mjd_from_date(*params.date) if params.date is not None else None,
+    }
+    for j, name in enumerate(auxiliary):
+        if not name:
+            continue
+        values = extras[:, j] * (DEG if name in ANGLE_READINGS else 1.0)
+        if name in header and header[name] is not None:
+            notes.append(f"auxiliary reading {j + 1} ({name}) replaces the run parameters' {name} for every record")
+            header[name] = None
+        if name == "rotator" and rotator is not None:
+            raise TpointFormatError(
+                path, int(lines[0]), f"auxiliary reading {j + 1} is named 'rotator', but a rotator option already "
+                "says field 1 of the auxiliary readings is the rotator angle"
+            )
+        readings[name] = values
+    if header["time"] is not None:
+        notes.append("time: the run parameters' date at 0h UTC (MJD), the same for every record: the file gives no time of day")
+    readings.update(per_run(n, header))
+    return as_readings(readings, n), tuple(notes)
 
 
 def _refraction_constants(params: RunParameters) -> tuple[float, float]:
@@ -518,7 +625,7 @@ def _equatorial_run(values: np.ndarray, layout, params: RunParameters, constants
         observed=observed,
         encoder=encoder,
         azimuth="ha-dec",
-        observations=Observations(encoder, target, convention="ha-dec"),
+        observations=Observations(encoder, target, convention="ha-dec", readings=common["readings"]),
         refraction_applied=bool(constants != (0.0, 0.0)),
         sidereal_time=sidereal,
         flipped=np.abs(dec_tel) > math.pi / 2,
@@ -532,6 +639,7 @@ def read_tpoint(
     azimuth: str = "N-E",
     mount: str | None = None,
     refraction: tuple[float, float] | None = None,
+    auxiliary: Sequence[str | None] | None = None,
 ) -> TpointRun:
     """Read a TPOINT input file of an alt-az or equatorial pointing run.
 
@@ -576,10 +684,22 @@ def read_tpoint(
     **Comments**: '!' or ';' starts a comment, at the start of a line or after a
     record (``10.58 37.42 10.55 37.49 0.44 ; [0026] ...``).
 
-    Any record may end with one more number: it is kept in ``run.extra``; with a
-    rotator option (``: ROTNR``, ``: ROTNL``, ``: ROTTEL``, ``: ROTCL``, ``: ROTCR``) it
-    is the rotator angle, kept in ``run.rotator`` (radians) with an
-    :class:`~pointax.io.InputWarning` that pointax does not model it.
+    **Auxiliary readings.** Every record may end with up to three more numbers, the
+    same count on every record: TPOINT's auxiliary readings (P. T. Wallace's term
+    routines ``tptPterms``/``tptPtermg`` take ``auxil[3]``, which its terms ``AUX1H`` ...
+    ``AUX2E`` and ``A1A`` ... ``A3Z`` multiply by a coefficient). They are kept in
+    ``run.extra`` as written and in ``run.readings`` (and ``run.observations.readings``)
+    as ``aux1``, ``aux2``, ``aux3`` by position (``run.notes`` says so), which is what
+    :mod:`pointax.terms.tpoint_auxiliary` reads. With a rotator option (``: ROTNR``,
+    ``: ROTNL``, ``: ROTTEL``, ``: ROTCL``, ``: ROTCR``) the first is the rotator angle,
+    also kept in ``run.rotator`` and ``readings["rotator"]`` (radians), with an
+    :class:`~pointax.io.InputWarning` saying so. ``auxiliary=("temperature", None,
+    "tilt_1")`` names the fields by position as well (standard names in their units:
+    ``rotator``, ``tilt_1``, ``tilt_2`` written in degrees are converted to radians;
+    others are kept as written). The run-parameters record's temperature (deg C),
+    pressure (mB = hPa) and humidity (0-1) are readings of every record, and its date
+    is ``readings["time"]``, the MJD of 0h UTC that day (TPOINT's record has no time of
+    day). A malformed auxiliary field raises, naming file, line and field.
 
     Args:
         path: the file.
@@ -592,9 +712,13 @@ def read_tpoint(
         refraction: the refraction constants ``(A, B)`` in radians (e.g. a model
             file's ``refraction`` times ``pointax.core.units.ARCSEC``), instead of those computed
             from the run's weather; they are applied to equatorial runs.
+        auxiliary: names of the auxiliary fields by position (``None`` leaves one
+            known as ``aux<k>`` only); at most as many as the records carry.
 
     Raises:
         TpointFormatError: naming file, line and field of the first malformed record.
     """
     path = os.fspath(path)
-    return parse_tpoint(read_text(path, TpointFormatError, comments="!;", caption=True), path, azimuth, mount, refraction)
+    return parse_tpoint(
+        read_text(path, TpointFormatError, comments="!;", caption=True), path, azimuth, mount, refraction, auxiliary
+    )

@@ -19,6 +19,7 @@ from .harmonic import (
 from .polynomial import Polynomial, RigorousPolynomial, is_polynomial_name, parse_polynomial, polynomial_term
 from ..core.units import check_pointing_term, is_quantity
 from .repertoire import not_yet_error, not_yet_reason
+from .tpoint_auxiliary import auxiliary_term, is_auxiliary_name
 from .tpoint_terms import (
     ACEC,
     ACES,
@@ -165,7 +166,7 @@ def tpoint(
 
     Raises:
         NotYetInPointax: (a ``ValueError``) for a name that is TPOINT's but that pointax
-            cannot build yet (auxiliary-reading terms, TX10, the other mount's terms and
+            cannot build yet (TX10, the other mount's terms (auxiliary ones included) and
             coordinates, the parallactic angle); the message says why.
         ValueError: for an unknown form, mount or term name (the message lists the
             known ones, or says which character of a harmonic or polynomial name is
@@ -199,6 +200,8 @@ def tpoint(
                     )
                 kwargs["latitude"] = float(latitude)
             out.append(library[name](coef=values.pop(name, 0.0), **kwargs))
+        elif is_auxiliary_name(name):  # TPOINT's auxiliary-reading terms (AUX1E, ZE, A3Z ...)
+            out.append(auxiliary_term(name, coef=values.pop(name, 0.0), mount=mount))
         elif (reason := not_yet_reason(name, mount)) is not None:
             raise not_yet_error(name, reason)
         elif is_harmonic_name(name):

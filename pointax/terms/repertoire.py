@@ -11,12 +11,12 @@ Built (:func:`pointax.terms.tpoint`):
   (:mod:`pointax.terms.equatorial`), TX TFP FLOP DAB DNP HF HFX HFD X2HC HGES HGEC DGES
   DGEC CD4A CD4B CD5A CD5B CHL MAL MEL NPL (:mod:`pointax.terms.equatorial_special`);
 * generated names: harmonics ``H...`` (:mod:`pointax.terms.harmonic`) and polynomials
-  ``P...`` (:mod:`pointax.terms.polynomial`) in the coordinates of the mount.
+  ``P...`` (:mod:`pointax.terms.polynomial`) in the coordinates of the mount;
+* terms driven by auxiliary readings (AUX1H ... AUX2E, the AAT's ZH and ZE, generic
+  auxiliary terms ``A{n}{R}``: :mod:`pointax.terms.tpoint_auxiliary`), on their mount.
 
 Refused as TPOINT's but not yet in pointax (:data:`NOT_YET`, :func:`not_yet_reason`):
 
-* terms driven by auxiliary readings (AUX1H ... AUX2E, the AAT's ZH and ZE, generic
-  auxiliary terms ``A{n}{R}``): pointax's runs carry no auxiliary readings;
 * a named term of the other mount (IH on an alt-az mount, IA on an equatorial one), and
   generated names with the other mount's coordinates or corrections or the parallactic
   angle ``Q``: TPOINT converts them with the site's latitude, pointax does not yet;
@@ -28,21 +28,11 @@ The definitions are P. T. Wallace's TPOINT routines ``tptPterms`` (standard term
 
 from __future__ import annotations
 
-import re
-
 from .linear import NotYetInPointax
 
 __all__ = ["NOT_YET", "not_yet_reason", "not_yet_error"]
 
-_AUXILIARY = (
-    "it is driven by an auxiliary reading (a per-observation value such as a temperature or the reading of "
-    "another axis), and pointax's runs carry no auxiliary readings"
-)
-
 NOT_YET: dict[str, str] = {
-    **{f"AUX{n}{r}": "a standard TPOINT term; " + _AUXILIARY for n in (1, 2) for r in "HXDASE"},
-    "ZH": "the AAT's hour-angle Z-gear term, " + _AUXILIARY,
-    "ZE": "the AAT's polar-axis Z-gear term, " + _AUXILIARY,
     "TX10": (
         "a term name found in public TPOINT model files, not among TPOINT's standard terms in P. T. Wallace's "
         "public term routine tptPterms (2006) nor in its generic-term grammar; no public definition of it was "
@@ -50,8 +40,6 @@ NOT_YET: dict[str, str] = {
     ),
 }
 """Named TPOINT terms pointax refuses, with the reason."""
-
-_GENERIC_AUXILIARY = re.compile(r"^A[1-3][HXDASEZ]$")
 
 
 def not_yet_reason(name: str, mount: str) -> str | None:
@@ -62,8 +50,6 @@ def not_yet_reason(name: str, mount: str) -> str | None:
 
     if name in NOT_YET:
         return NOT_YET[name]
-    if _GENERIC_AUXILIARY.match(name):
-        return "TPOINT's generic auxiliary term (auxiliary reading n times a coefficient); " + _AUXILIARY
     if mount == "altaz" and name in equatorial.EQUATORIAL_LINEAR_TERMS and name not in LINEAR_TERMS:
         return (
             f"TPOINT's equatorial term; TPOINT also applies it on an alt-az mount, converting it with the "

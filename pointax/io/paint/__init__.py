@@ -30,6 +30,11 @@ Conventions of the files, converted here where data enters pointax:
   (:func:`sun_enu_from_paint`).
 * The measured mirror normal of a sample is the unit bisector of the direction to the
   sun and the direction from the heliostat to the focal spot.
+* Auxiliary readings (``run.readings``, ``run.observations.readings``): ``sun_azimuth``
+  (radians, North through East) and ``sun_elevation`` (radians) of every sample, and
+  ``time`` (MJD, UTC) where a sample's time is given (an ISO 8601 ``datetime`` or
+  ``timestamp`` field of its properties file, or ``properties.datetime`` of its STAC item
+  ``<id>-calibration-item-stac.json`` beside it; NaN for a sample without one).
 
 Every malformed file raises :class:`PaintFormatError`, whose message names the file,
 the field as a JSON path (``kinematics_properties.actuators[1].increment``) and the

@@ -329,6 +329,11 @@ class CalibrationSample:
     of the measured focal-spot centroid, for the methods present (not null)."""
     target_name: str
     """The target plane hit (a key of :func:`read_tower`)."""
+    time_mjd: float | None = None
+    """The calibration's time, MJD (UTC days), when a file gives it (:data:`TIME_FIELDS`
+    of the properties file, else ``properties.datetime`` of the sample's STAC item
+    ``<id>-calibration-item-stac.json`` beside it); None otherwise. As stored: PAINT's
+    clock may be off the UTC of its sun position (use the sun position for geometry)."""
 
     @property
     def sun_enu(self) -> np.ndarray:
@@ -365,6 +370,7 @@ def read_calibration(path: str | os.PathLike) -> CalibrationSample:
         if not any(m in focal_spot for m in FOCAL_SPOT_METHODS):
             doc.fail(fs_field, f"has none of the methods {', '.join(FOCAL_SPOT_METHODS)}")
         target = doc.string(root, "target_name")
+        time_mjd = _time_of(doc, root, Path(doc.path).parent / f"{sample_id}{STAC_ITEM_SUFFIX}")
         return CalibrationSample(
             path=doc.path,
             sample_id=sample_id,
@@ -373,7 +379,41 @@ def read_calibration(path: str | os.PathLike) -> CalibrationSample:
             sun_elevation_deg=elevation,
             focal_spot=focal_spot,
             target_name=target,
+            time_mjd=time_mjd,
         )
+
+
+TIME_FIELDS = ("datetime", "timestamp", "DateTime", "time")
+"""Fields of a calibration-properties file that may hold the calibration's time (ISO 8601)."""
+STAC_ITEM_SUFFIX = "-calibration-item-stac.json"
+"""A sample's STAC item (PAINT's metadata, ``properties.datetime``), beside its properties file."""
+
+
+def _time_of(doc: JsonDocument, root: dict, stac: Path) -> float | None:
+    """The calibration's MJD from ``root``'s :data:`TIME_FIELDS`, else the STAC item's
+    ``properties.datetime``; None when neither gives one. A time that is not ISO 8601
+    text fails naming the file and field."""
+    from ..run_readings import mjd_from_iso
+
+    for key in TIME_FIELDS:
+        if key in root and root[key] is not None:
+            return _iso(doc, root[key], key, mjd_from_iso)
+    if stac.is_file():
+        item = JsonDocument(stac)
+        with item.named_errors():
+            properties = item.data.get("properties") if isinstance(item.data, dict) else None
+            if isinstance(properties, dict) and properties.get("datetime") is not None:
+                return _iso(item, properties["datetime"], "properties.datetime", mjd_from_iso)
+    return None
+
+
+def _iso(doc: JsonDocument, value: Any, field: str, parse) -> float:
+    if not isinstance(value, str):
+        doc.fail(field, f"is {value!r}: expected an ISO 8601 date and time (e.g. 2022-06-01T10:15:00Z)")
+    try:
+        return parse(value)
+    except ValueError as e:
+        doc.fail(field, str(e))
 
 
 # --------------------------------------------------------------------------- tower

@@ -4,6 +4,7 @@ increments, sun directions, measured mirror normals). See :mod:`pointax.io.paint
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from pathlib import Path
 
@@ -104,10 +105,25 @@ class PaintRun:
         return 2.0 * np.sum(self.sun * self.measured_normal, axis=-1, keepdims=True) * self.measured_normal - self.sun
 
     @property
+    def readings(self) -> dict[str, np.ndarray]:
+        """Auxiliary readings per sample: ``sun_azimuth`` (radians, North through East,
+        pointax's convention: ``180 deg - `` PAINT's South-based azimuth) and
+        ``sun_elevation`` (radians) as stored, and ``time`` (MJD, UTC days) when the
+        files give the calibrations' times (:attr:`CalibrationSample.time_mjd`; NaN for a
+        sample without one)."""
+        az = np.radians(np.mod(180.0 - np.array([s.sun_azimuth_deg for s in self.samples], np.float64), 360.0))
+        out = {"sun_azimuth": az, "sun_elevation": np.radians([s.sun_elevation_deg for s in self.samples])}
+        times = [s.time_mjd for s in self.samples]
+        if any(t is not None for t in times):
+            out["time"] = np.array([math.nan if t is None else t for t in times], np.float64)
+        return out
+
+    @property
     def observations(self) -> Observations:
         """The samples as :class:`pointax.Observations` of a
-        :class:`pointax.HeliostatMount`: motor increments and measured normals."""
-        return Observations(self.motor, self.measured_normal, convention="heliostat")
+        :class:`pointax.HeliostatMount`: motor increments and measured normals, with
+        :attr:`readings`."""
+        return Observations(self.motor, self.measured_normal, convention="heliostat", readings=self.readings)
 
     def __len__(self) -> int:
         return len(self.samples)
