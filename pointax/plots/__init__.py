@@ -15,6 +15,7 @@ imports it when called.
 * :func:`heliostat_figure`: a heliostat calibration's per-sample errors before, after
   and leave-one-out (:func:`pointax.calibrate_heliostat`).
 * :func:`network_figure`: per-site Sky RMS and status of a batched fit.
+* :func:`history_figure`: a run history's coefficients against time, with alarms.
 * :func:`families_figure`: a model-family comparison (:func:`pointax.compare`).
 
 Residuals are observed minus model, in arcsec (mrad for heliostats); masked (weight
@@ -32,6 +33,7 @@ __all__ = [
     "save_figure",
     "heliostat_figure",
     "network_figure",
+    "history_figure",
     "families_figure",
     "residual_data",
     "FIT_KINDS",
@@ -48,6 +50,7 @@ __getattr__, __dir__ = lazy_namespace(
         "save_figure": "save",
         "heliostat_figure": "heliostat",
         "network_figure": "network",
+        "history_figure": "history",
         "families_figure": "families",
         "residual_data": "data",
     },
