@@ -60,6 +60,8 @@ _EXPORTS = {
     "svd_unit_covariance": "statistics",
     "leave_one_out": "statistics",
     "embed": "structure",
+    "PooledFit": "pooled",
+    "fit_pooled": "pooled",
 }
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, ("residuals", "statistics", "structure"))
@@ -83,6 +85,8 @@ __all__ = [
     "fit",
     "fit_core",
     "fit_model",
+    "fit_pooled",
+    "PooledFit",
     "free_mask",
     "least_squares",
     "leave_one_out",
