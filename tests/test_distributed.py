@@ -136,3 +136,23 @@ def test_errors_name_the_problem(client, network):
     with pytest.raises(ValueError, match="convention") as info:
         fit_batch_distributed(px.AltAz(px.terms.tpoint("IA IE")), batch, client=client, chunk_size=CHUNK)
     assert any("chunk of sites" in note for note in getattr(info.value, "__notes__", []))
+
+
+def test_chunks_made_on_the_workers_come_back_summarised(client, network):
+    """fit_chunks_distributed: each chunk is made by ``source(k)`` on a worker and only a
+    few numbers per site come back; they equal fit_batch of the same chunk here, bit for
+    bit (same arrays, same compiled program)."""
+    from pointax.fitting.distributed import SUMMARY_FIELDS, fit_chunks_distributed, site_summary
+
+    batch, values = network
+    chunks = [(jax.tree.map(lambda x: np.asarray(x)[4 * k : 4 * k + 4], batch), values[4 * k : 4 * k + 4]) for k in range(2)]
+    seen = []
+    summary = fit_chunks_distributed(
+        px.Turntable("full"), lambda k: chunks[k], 2, client=client, max_in_flight=1,
+        progress=lambda d, t: seen.append((d, t)), **OPTIONS,
+    )  # fmt: skip
+    local = [site_summary(px.fit_batch(px.Turntable("full"), obs, values=v, **OPTIONS)) for obs, v in chunks]
+    for name in SUMMARY_FIELDS:
+        np.testing.assert_array_equal(summary[name], np.concatenate([part[name] for part in local]), err_msg=name)
+    assert summary["values"].shape == (8, 5)
+    assert seen == [(1, 2), (2, 2)]

@@ -447,10 +447,13 @@ def fit_network(
                 groups.setdefault(entry.model_key, []).append(entry)
         for members in groups.values():
             offset = done
+            if hasattr(report, "shifted"):  # a progress bar: it also names compilations
+                step = report.shifted(offset, len(to_fit))
+            else:
 
-            def step(n_done, _total, offset=offset):
-                if report is not None:
-                    report(offset + n_done, len(to_fit))
+                def step(n_done, _total, offset=offset):
+                    if report is not None:
+                        report(offset + n_done, len(to_fit))
 
             out.update(_fit_group(members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, step, client))
             done += len(members)

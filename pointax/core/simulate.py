@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
@@ -21,6 +22,7 @@ def simulate(
     encoder: Float[ArrayLike, "n 2"],
     noise: float | tuple[float, float] = 0.0,
     seed: int = 0,
+    readings=None,
 ) -> Observations:
     """Observations that ``model`` (the truth) would produce at these encoder readings.
 
@@ -33,19 +35,42 @@ def simulate(
             one value for both axes or ``(across axis 1, along axis 2)`` in the mount
             frame: (cross-elevation, elevation) for alt-az, (dL cos B, dB) for X-Y.
         seed: seed of the NumPy random generator for the noise.
+        readings: auxiliary readings, name -> ``(n,)`` values, that the model's terms
+            read (:attr:`pointax.Model.readings`); carried by the result.
 
     Returns:
         :class:`Observations` with the noisy true directions as targets.
     """
     encoder = angles_in_radians(encoder, "encoder")
-    truth = np.asarray(model(encoder))
     if isinstance(noise, tuple):
         noise = tuple(angles_in_radians(x, "noise") for x in noise)
     sigma = np.broadcast_to(angles_in_radians(noise, "noise"), (2,))
-    offsets = np.random.default_rng(seed).normal(size=(encoder.shape[0], 2)) * sigma
-    frame = np.asarray(model.mount.frame)
-    target = np.asarray(offset_direction(jnp.asarray(truth @ frame), jnp.asarray(offsets))) @ frame.T
-    return Observations(encoder, target, convention=model.mount.convention)
+    n = encoder.shape[0]
+    offsets = np.random.default_rng(seed).normal(size=(n, 2)) * sigma
+    # One compiled program per model structure and bucket of rows (padded rows repeat
+    # the first reading and are dropped), not one per observation count.
+    rows = simulation_bucket(n)
+    pad = lambda x: np.concatenate([x, np.repeat(x[:1], rows - n, axis=0)]) if n and rows > n else x  # noqa: E731
+    readings = {k: np.broadcast_to(np.asarray(v, np.float64), (n,)) for k, v in (readings or {}).items()}
+    padded = {k: pad(v) for k, v in readings.items()}
+    target = np.asarray(_noisy_directions(model, pad(np.asarray(encoder, np.float64)), pad(offsets), padded))[:n]
+    return Observations(encoder, target, convention=model.mount.convention, readings=readings)
+
+
+def simulation_bucket(n: int) -> int:
+    """Rows :func:`simulate` evaluates for ``n`` observations: at least 128, else the
+    next power of two (evaluating a model at 128 directions costs far less than
+    compiling it for another size)."""
+    return max(128, 1 << (max(int(n), 1) - 1).bit_length())
+
+
+@jax.jit
+def _noisy_directions(model: Model, encoder, offsets, readings=None):
+    """``(n, 3)`` ENU directions at gnomonic ``offsets`` (mount frame) from ``model``'s
+    pointing at ``encoder``: one compiled program."""
+    frame = jnp.asarray(model.mount.frame)
+    truth = model(encoder, readings=readings or None) @ frame
+    return offset_direction(truth, offsets) @ frame.T
 
 
 def encoder_grid(n_az: int = 12, elevations_deg=(20, 35, 50, 65, 80), az_offset_deg: float = 0.0) -> np.ndarray:

@@ -17,6 +17,7 @@ Parameters shared by all sites: :func:`pointax.fit_shared`.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Callable, Sequence
 
@@ -35,16 +36,40 @@ from .batch_fast_pass import (
     compiled,
     default_chunk_size,
     fast_pass,
+    first_call,
     starts_in_tpoint_form,
 )
+from . import programs
+from .core import fit_result_structure
 from .options import FitOptions
 from .problem import is_affine
+from .progress import activity, progress_bar
 from .ranges import range_warning, wrap_periodic
 from .residuals import check_convention
 from .result import FitResult, too_few_residuals
 from .solo import fit_model, options_from
 
-__all__ = ["stack_observations", "batched_observations", "fit_batch", "site_result", "site_statuses"]
+__all__ = ["stack_observations", "batched_observations", "fit_batch", "site_result", "site_statuses", "observation_bucket"]
+
+COMPILING = "compiling the batched fit (first call for this model and size)"
+"""What a progress bar says while :func:`fit_batch` compiles its fast pass."""
+
+COMPILING_FULL = "compiling the full fit for the sites the fast pass left (first call for this model and size)"
+"""... and while it compiles the full loop."""
+
+PER_ROW_FIELDS = ("residuals", "used", "loo_residuals", "outliers")
+"""The fields of a :class:`pointax.FitResult` with one entry per observation row."""
+
+
+def observation_bucket(n: int) -> int:
+    """Rows per site for sites of up to ``n`` observations (:func:`stack_observations`'s
+    default): ``n`` rounded up to 8, 9, ..., 16, 18, ..., 32, 36, ... (8 to 15 times a
+    power of two), so that networks whose longest sites differ share a few compiled
+    shapes while at most an eighth of the rows are padding (a quarter cost the batched
+    refits of 60-observation sites about 10%, padded to 64)."""
+    n = max(int(n), 8)
+    step = 1 << max(n.bit_length() - 4, 0)  # n lies in [8 step, 16 step)
+    return -(-n // step) * step
 
 
 def stack_observations(sites: Sequence[Observations], n_obs: int | None = None) -> Observations:
@@ -54,7 +79,9 @@ def stack_observations(sites: Sequence[Observations], n_obs: int | None = None) 
 
     Args:
         sites: one :class:`pointax.Observations` per site, all in one convention.
-        n_obs: rows per site after padding (default: the longest site).
+        n_obs: rows per site after padding (default: the longest site's
+            :func:`observation_bucket`, so that networks whose longest sites differ
+            share a few compiled shapes).
 
     Raises:
         ValueError: no sites, mixed conventions, or a site longer than ``n_obs``.
@@ -65,24 +92,30 @@ def stack_observations(sites: Sequence[Observations], n_obs: int | None = None) 
     if len(conventions) > 1:
         raise ValueError(f"sites mix encoder conventions {sorted(map(str, conventions))}")
     longest = max(len(s) for s in sites)
-    n = longest if n_obs is None else int(n_obs)
+    n = observation_bucket(longest) if n_obs is None else int(n_obs)
     if n < longest:
         raise ValueError(f"n_obs={n} is shorter than the longest site ({longest} observations)")
     encoder = np.zeros((len(sites), n, 2))
     target = np.tile(np.array([0.0, 1.0, 0.0]), (len(sites), n, 1))
     weight = np.zeros((len(sites), n))
+    names = sorted({name for s in sites for name in s.readings})  # a reading a site lacks: NaN (not recorded)
+    readings = {name: np.full((len(sites), n), np.nan) for name in names}
     for k, s in enumerate(sites):
         m = len(s)
         encoder[k, :m] = np.asarray(s.encoder)
         target[k, :m] = np.asarray(s.target)
         weight[k, :m] = np.asarray(s.weight)
-    return batched_observations(encoder, target, weight, conventions.pop())
+        for name, value in s.readings.items():
+            readings[name][k, :m] = np.asarray(value)
+    return batched_observations(encoder, target, weight, conventions.pop(), readings)
 
 
-def batched_observations(encoder, target, weight, convention) -> Observations:
-    """An Observations pytree with a leading site axis (bypasses the 2-D shape checks)."""
-    obs = Observations(encoder[0], target[0], weight[0], convention)
-    return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight), obs, (encoder, target, weight))
+def batched_observations(encoder, target, weight, convention, readings=None) -> Observations:
+    """An Observations pytree with a leading site axis (bypasses the 2-D shape checks);
+    ``readings``: name -> ``(S, N)`` auxiliary readings."""
+    readings = dict(readings or {})
+    obs = Observations(encoder[0], target[0], weight[0], convention, {k: v[0] for k, v in readings.items()})
+    return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight, o.readings), obs, (encoder, target, weight, readings))
 
 
 def site_result(result: FitResult, site: int) -> FitResult:
@@ -138,14 +171,48 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
     (:mod:`pointax.fitting.xla_options`), which run it faster (``benchmarks/batch_fit_notes.md``)."""
     if active is None:
         active = np.ones(np.shape(values)[0], bool)
+    if programs.directory() is not None:
+        # Stored programs (jax.export): a later process does not trace the full loop again
+        # (tracing it costs more than loading its compiled code, benchmarks/network_scale.py).
+        args = (model, values, obs, np.asarray(active))
+        return programs.call("batch_full_loop", _stored_full_loop, args, options, _full_loop_structure)
     dynamic, static = eqx.partition((model, values, obs, np.asarray(active)), eqx.is_array)
-    return compiled(_full_loop, ("static", "options"))(dynamic, static, options)
+    return compiled(_full_loop, ("static", "options"))(dynamic, _Static(static), options)
 
 
-def _full_loop(dynamic, static, options: FitOptions):
+def _stored_full_loop(model, values, obs, active, options: FitOptions):
+    """:func:`_full_loop` in :func:`pointax.fitting.programs.call`'s form."""
+    dynamic, static = eqx.partition((model, values, obs, active), eqx.is_array)
+    return _full_loop(dynamic, _Static(static), options)
+
+
+def _full_loop_structure(model, values, obs, active, options: FitOptions):
+    """The pytree structure of :func:`_full_loop`'s result (a batched
+    :func:`pointax.fitting.fit_model` result), built without tracing."""
+    return fit_result_structure(model, model.free_parameters, options)
+
+
+class _Static:
+    """The non-array part of a pytree as a hashable static argument (its structure and
+    leaves: a module holding a dict, such as the observations' readings, has no hash)."""
+
+    def __init__(self, tree):
+        self.leaves, self.treedef = jax.tree.flatten(tree)
+
+    def __hash__(self):
+        return hash((self.treedef, tuple(self.leaves)))
+
+    def __eq__(self, other):
+        return isinstance(other, _Static) and (self.treedef, self.leaves) == (other.treedef, other.leaves)
+
+    def tree(self):
+        return jax.tree.unflatten(self.treedef, self.leaves)
+
+
+def _full_loop(dynamic, static: _Static, options: FitOptions):
     """:func:`_fit_sites`'s loop; ``dynamic`` and ``static``: ``(model, values, obs,
     active)`` partitioned into arrays and the rest."""
-    model, values, obs, active = eqx.combine(dynamic, static)
+    model, values, obs, active = eqx.combine(dynamic, static.tree())
 
     def one(args):
         y, site_obs = args
@@ -159,6 +226,82 @@ def _full_loop(dynamic, static, options: FitOptions):
         return jax.lax.cond(is_active, one, skip, (y, site_obs))
 
     return jax.lax.map(maybe, (active, values, obs))
+
+
+def _site_lengths(weight) -> np.ndarray:
+    """``(S,)`` rows per site up to its last used one (weight > 0): the rest are padding."""
+    used = np.asarray(weight) > 0
+    return np.where(used.any(axis=1), used.shape[1] - np.argmax(used[:, ::-1], axis=1), 0)
+
+
+def _chunk_plan(lengths: np.ndarray, size: int, n_rows: int | None = None) -> list[tuple[np.ndarray, int]]:
+    """``(site indices, rows)`` per compiled call of :func:`fit_batch`.
+
+    Every chunk gets the batch's ``n_rows`` (default: the longest site's
+    :func:`observation_bucket`), in site order; except that in a batch of several chunks, the sites
+    that fit in half those rows (a quarter, ...) get chunks of their own with those
+    rows when they fill at least two chunks (a further compilation must pay for
+    itself): sites of very different sizes do not all pay for the largest."""
+    n_sites = len(lengths)
+    top = int(n_rows) if n_rows is not None else observation_bucket(lengths.max() if n_sites else 0)
+    if n_sites <= size:
+        return [(np.arange(n_sites), top)]
+    order = np.argsort(lengths, kind="stable")
+    rows = np.full(n_sites, top)
+    level = top
+    while level % 2 == 0 and level // 2 >= 8:
+        level //= 2
+        rows = np.where(lengths <= level, level, rows)
+    levels = sorted(set(rows.tolist()))
+    for k, level in enumerate(levels[:-1]):  # small groups join the next larger one
+        if np.sum(rows == level) < 2 * size:
+            rows[rows == level] = levels[k + 1]
+    if np.all(rows == top):  # one size: chunks in site order
+        return [(np.arange(start, min(start + size, n_sites)), top) for start in range(0, n_sites, size)]
+    chunks = []
+    for level in sorted(set(rows.tolist())):
+        members = order[rows[order] == level]
+        chunks += [(members[start : start + size], level) for start in range(0, len(members), size)]
+    return chunks
+
+
+def _rows_to(obs: Observations, rows: int) -> Observations:
+    """``obs`` (a leading site axis) with ``rows`` rows per site: cut (the rows beyond are
+    unused) or padded as :func:`stack_observations` pads (weight 0)."""
+    n = obs.encoder.shape[1]
+    if rows <= n:
+        return jax.tree.map(lambda x: np.asarray(x)[:, :rows], obs)
+    pad = lambda x: np.concatenate([x, np.zeros((x.shape[0], rows - n) + x.shape[2:], x.dtype)], axis=1)  # noqa: E731
+    out = jax.tree.map(lambda x: pad(np.asarray(x)), obs)
+    target = np.array(out.target)
+    target[:, n:] = [0.0, 1.0, 0.0]
+    return eqx.tree_at(lambda o: o.target, out, target)
+
+
+def _rows_back(result: FitResult, rows: int) -> FitResult:
+    """A chunk's result with ``rows`` rows per site in its per-row fields, as the fit of
+    the batch's own rows gives them: rows beyond are unused (residual 0, not used, no
+    outlier; leave-one-out residual 0, NaN where the site has none, as the fast pass)."""
+    n = np.shape(result.used)[1]
+    if n == rows:
+        return result
+    fields = lambda r: [getattr(r, f) for f in PER_ROW_FIELDS]  # noqa: E731
+    if n > rows:
+        return eqx.tree_at(fields, result, [np.asarray(x)[:, :rows] for x in fields(result)])
+    loo = np.asarray(result.loo_residuals)
+    none = np.all(np.isnan(loo), axis=(1, 2))[:, None, None]
+    extra = rows - n
+    fill = {
+        "residuals": np.zeros((loo.shape[0], extra, 2)),
+        "used": np.zeros((loo.shape[0], extra), bool),
+        "loo_residuals": np.where(none, np.nan, np.zeros((loo.shape[0], extra, 2))),
+        "outliers": np.zeros((loo.shape[0], extra), bool),
+    }
+    grown = []
+    for name, x in zip(PER_ROW_FIELDS, fields(result)):
+        x = np.asarray(x)
+        grown.append(np.concatenate([x, fill[name].astype(x.dtype)], axis=1))
+    return eqx.tree_at(fields, result, grown)
 
 
 def _power_of_two(n: int) -> int:
@@ -191,6 +334,11 @@ def _first_sites(tree, n: int):
 
 
 def _take_sites(tree, index):
+    """The sites ``index`` of every leaf (NumPy); a run of consecutive sites as a slice,
+    a view: copying a chunk's observations on every call costs batched refits time."""
+    index = np.asarray(index)
+    if index.size and index[-1] - index[0] == index.size - 1 and np.all(np.diff(index) == 1):
+        index = slice(int(index[0]), int(index[-1]) + 1)
     return jax.tree.map(lambda x: np.asarray(x)[index], tree)
 
 
@@ -220,7 +368,7 @@ def fit_batch(
     loss_scale: float | None = None,
     reject: float = 3.0,
     chunk_size: int | str | None = "auto",
-    progress: Callable[[int, int], None] | None = None,
+    progress: bool | Callable[[int, int], None] | None = None,
     options: FitOptions | None = None,
 ) -> FitResult:
     """Fit ``model`` to every site of a batch, each with its own parameters.
@@ -256,8 +404,17 @@ def fit_batch(
             bound the memory and keep the working set in the CPU's caches;
             every chunk has the same shape (the last is padded), so one compilation
             serves them all. A batch smaller than a chunk is padded to the next power
-            of two: batches of 100 and of 101 sites share one compilation.
-        progress: called as ``progress(sites_done, sites_total)`` after each chunk.
+            of two: batches of 100 and of 101 sites share one compilation. The rows
+            per site are the batch's (:func:`stack_observations` pads them to a few
+            bucketed lengths, :func:`observation_bucket`, so that batches whose longest
+            sites differ share a few compilations; padding arrays of an exact length
+            again would cost every call copies and rows to fit); in
+            a batch of several chunks, sites that fit in half the rows (a quarter, ...)
+            get chunks of their own when they fill two or more (results in site order).
+        progress: ``True`` for a progress bar on standard error when it is a terminal
+            (it names a compilation while it lasts), or a callable called as
+            ``progress(sites_done, sites_total)`` after each chunk (a
+            :class:`pointax.fitting.progress.Progress` also shows the compilations).
         options: ``solver`` to ``reject`` as one :class:`pointax.FitOptions` (then
             leave those keywords at their defaults).
 
@@ -277,6 +434,7 @@ def fit_batch(
     if int(steps) < 0:
         raise ValueError(f"steps must be >= 0, got {steps!r}")
     check_convention(model, observations)
+    observations = observations.only_readings(model.readings)
     n_sites = observations.encoder.shape[0]
     values = start_values(model, n_sites, values)
     # Parameters as float64 arrays (host-side: no small computations to compile).
@@ -287,55 +445,70 @@ def fit_batch(
         np.asarray(observations.target, np.float64),
         np.asarray(observations.weight, np.float64),
         observations.convention,
+        {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
     )
     if isinstance(chunk_size, str):
         if chunk_size != "auto":
             raise ValueError(f"chunk_size must be a number of sites, None or 'auto', got {chunk_size!r}")
         chunk_size = default_chunk_size(model)
     size = n_sites if chunk_size is None else min(max(1, int(chunk_size)), _power_of_two(n_sites))
-    chunks = [(start, min(start + size, n_sites)) for start in range(0, n_sites, size)]
+    n_rows = observations.encoder.shape[1]
+    chunks = _chunk_plan(_site_lengths(site_obs.weight), size, n_rows)
+    bar = progress_bar(n_sites, "fitting", "site", enabled=True) if progress is True else None
+    report = bar if bar is not None else (progress or None)
 
-    def chunk_inputs(start, stop):
-        return _pad_sites(values[start:stop], size), _pad_sites(_take_sites(site_obs, slice(start, stop)), size)
+    def chunk_inputs(index, rows):
+        return _pad_sites(values[index], size), _pad_sites(_rows_to(_take_sites(site_obs, index), rows), size)
 
-    results = []
-    if fast:
-        # Dispatch every chunk first (JAX runs them asynchronously), then look at them:
-        # checking each chunk before dispatching the next would leave the CPU idle.
-        pending = []
-        for start, stop in chunks:
-            y0, obs = chunk_inputs(start, stop)
-            pending.append((start, stop, y0, obs, fast_pass(model, y0, obs, int(steps), rtol, atol)))
-        for start, stop, y0, obs, (out, suspect) in pending:
-            n = stop - start
-            again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
-            if again.size:
-                # Few sites: pad to a power of two so that few shapes are compiled.
-                pad = max(8, _power_of_two(again.size))
-                redo = _fit_sites(
-                    model,
-                    _pad_sites(np.asarray(y0)[again], pad),
-                    _pad_sites(_take_sites(obs, again), pad),
-                    options,
-                    active=np.arange(pad) < again.size,
-                )
-                # (the solver's name is static: one name for the batch, set at the end)
-                fast_steps = np.asarray(out.iterations)[again]
-                redo = dataclasses.replace(redo, iterations=redo.iterations + _pad_sites(fast_steps, pad), solver=out.solver)
-                out = _put_sites(out, again, redo)
-            results.append(_first_sites(out, n))
-            if progress is not None:
-                progress(stop, n_sites)
-    else:
-        for start, stop in chunks:
-            y0, obs = chunk_inputs(start, stop)
-            out = _fit_sites(model, y0, obs, options, active=np.arange(size) < stop - start)
-            results.append(_first_sites(out, stop - start))
-            if progress is not None:
-                progress(stop, n_sites)
+    def full_loop(y0, obs, active):
+        # Padded to a power of two: few shapes to compile.
+        with activity(report, COMPILING_FULL) if first_call("full_loop", (model, y0, obs), options) else contextlib.nullcontext():
+            return _fit_sites(model, y0, obs, options, active=active)
+
+    results, done = [], 0
+    try:
+        if fast:
+            # Dispatch every chunk first (JAX runs them asynchronously), then look at them:
+            # checking each chunk before dispatching the next would leave the CPU idle.
+            pending = []
+            for index, rows in chunks:
+                y0, obs = chunk_inputs(index, rows)
+                notice = lambda: activity(report, COMPILING)  # noqa: E731
+                pending.append((index, y0, obs, fast_pass(model, y0, obs, int(steps), rtol, atol, notice=notice)))
+            for index, y0, obs, (out, suspect) in pending:
+                n = len(index)
+                again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
+                if again.size:
+                    pad = max(8, _power_of_two(again.size))
+                    redo = full_loop(
+                        _pad_sites(np.asarray(y0)[again], pad), _pad_sites(_take_sites(obs, again), pad), np.arange(pad) < again.size
+                    )
+                    # (the solver's name is static: one name for the batch, set at the end)
+                    fast_steps = np.asarray(out.iterations)[again]
+                    redo = dataclasses.replace(redo, iterations=redo.iterations + _pad_sites(fast_steps, pad), solver=out.solver)
+                    out = _put_sites(out, again, redo)
+                results.append((index, _rows_back(_first_sites(out, n), n_rows)))
+                done += n
+                if report is not None:
+                    report(done, n_sites)
+        else:
+            for index, rows in chunks:
+                y0, obs = chunk_inputs(index, rows)
+                out = full_loop(y0, obs, np.arange(size) < len(index))
+                results.append((index, _rows_back(_first_sites(out, len(index)), n_rows)))
+                done += len(index)
+                if report is not None:
+                    report(done, n_sites)
+    finally:
+        if bar is not None:
+            bar.close()
+    order = np.concatenate([index for index, _ in results])
+    results = [part for _, part in results]
     # Assembled on the host: JAX's slicing and concatenation (and jnp.asarray) would each
     # compile a small computation per result field on the first call.
     result = jax.tree.map(lambda *xs: np.concatenate(xs), *results)
+    if not np.array_equal(order, np.arange(n_sites)):  # chunks by size: back to site order
+        result = jax.tree.map(lambda x: x[np.argsort(order, kind="stable")], result)
     # A site with no more residuals than free parameters fits every point, with every
     # sigma 0: refused, as px.fit refuses it (the reason: FitResult.message).
     too_few = too_few_residuals(result.n_obs, len(model.free_parameters))

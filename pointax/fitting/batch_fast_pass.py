@@ -12,19 +12,22 @@ both: no solver state is read.
 
 from __future__ import annotations
 
+import collections
+import contextlib
 import dataclasses
 import functools
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array
 
 from ..core.model import Model
 from ..core.mounts import SphericalMount
 from ..core.term import Term
-from . import normal_equations, xla_options
-from .core import result_from_covariance, within_tolerances
+from . import normal_equations, programs, xla_options
+from .core import fit_result_structure, result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
 from .problem import SiteData, is_affine, site_data, site_residuals
 from .result import FitResult
@@ -45,6 +48,8 @@ __all__ = [
     "uses_fast_compile_options",
     "default_chunk_size",
     "compiled",
+    "first_call",
+    "PROGRAMS",
 ]
 
 SUSPECT_PIVOT = 1e-8
@@ -69,6 +74,33 @@ stays in the CPU's caches)."""
 SKY_FORM_CHUNK = 512
 """Sites per compiled call for the exact (sky) form with sky offsets: its fixed point
 carries every parameter's derivative per observation, a larger working set per site."""
+
+
+PROGRAMS: collections.Counter = collections.Counter()
+"""Programs of the batched fit met in this process, per function name (one per model
+structure, options and shape: a test's compilation counter)."""
+
+_SEEN: set = set()
+
+
+def first_call(name: str, args, statics=()) -> bool:
+    """Whether this is the first call in this process of the compiled ``name`` with
+    arguments of this structure and these shapes (then it is traced and compiled, or
+    read from JAX's persistent cache): for :func:`pointax.fit_batch`'s "compiling"
+    notice and :data:`PROGRAMS`. Computed from the pytree structure and shapes, without
+    tracing."""
+    try:
+        leaves, treedef = jax.tree.flatten(args)
+        shapes = tuple((np.shape(x), str(x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype)) for x in leaves)
+        key = (name, treedef, shapes, statics, bool(jax.config.jax_enable_x64))
+        hash(key)
+    except TypeError:  # a structure without a hash: say so every time
+        return True
+    if key in _SEEN:
+        return False
+    _SEEN.add(key)
+    PROGRAMS[name] += 1
+    return True
 
 
 @functools.cache
@@ -254,7 +286,9 @@ def _site_data_and_fits(model, y0, obs, steps: int, rtol: float, atol: float, tp
     return fixed_steps_fits(model, y0, site_data(model, obs), steps, rtol, atol)
 
 
-def fast_pass(model: Model, values, obs, steps: int, rtol: float, atol: float) -> tuple[FitResult, Array]:
+def fast_pass(
+    model: Model, values, obs, steps: int, rtol: float, atol: float, notice=None
+) -> tuple[FitResult, Array]:
     """The fast pass over one chunk (``values (S, M)``, ``obs`` with a leading site axis):
     the site data, then :func:`fixed_steps_fits`; the batched ``(FitResult, suspect)``.
 
@@ -262,13 +296,35 @@ def fast_pass(model: Model, values, obs, steps: int, rtol: float, atol: float) -
     takes the site data as arrays, so XLA computes each of them once. With one step
     (affine models) there is no loop, and inside one computation XLA on the CPU
     recomputes the data's arctangents, sines and cosines in every fusion that uses them,
-    so the site data are a call of their own and handed over as arrays."""
+    so the site data are a call of their own and handed over as arrays.
+
+    ``notice``: ``notice()`` gives a context that the first call of a program (a
+    compilation, :func:`first_call`) runs in, e.g. a progress bar's activity."""
     statics = ("steps", "rtol", "atol")
     fast = uses_fast_compile_options(model)
     tpoint_start = starts_in_tpoint_form(model)
-    if steps > 1 or tpoint_start:
-        return compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
-            model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=tpoint_start
-        )
-    data = compiled(site_data, (), fast)(model, obs)
-    return compiled(fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)
+    first = first_call("fast_pass", (model, values, obs), (steps, rtol, atol, fast, tpoint_start))
+    with notice() if first and notice is not None else contextlib.nullcontext():
+        if (steps > 1 or tpoint_start) and programs.directory() is not None:
+            # Stored programs (jax.export): a later process does not trace this fit again
+            # (tracing it costs more than loading its compiled code, benchmarks/network_scale.py).
+            static = (int(steps), float(rtol), float(atol), bool(tpoint_start))
+            return programs.call("batch_fast_pass", _stored_fast_pass, (model, values, obs), static, _fast_pass_structure, fast)
+        if steps > 1 or tpoint_start:
+            return compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
+                model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=tpoint_start
+            )
+        data = compiled(site_data, (), fast)(model, obs)
+        return compiled(fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)
+
+
+def _stored_fast_pass(model, values, obs, static):
+    """:func:`_site_data_and_fits` in :func:`pointax.fitting.programs.call`'s form."""
+    steps, rtol, atol, tpoint_start = static
+    return _site_data_and_fits(model, values, obs, steps, rtol, atol, tpoint_start)
+
+
+def _fast_pass_structure(model, values, obs, static):
+    """The pytree structure of :func:`_site_data_and_fits`'s ``(FitResult, suspect)``,
+    built without tracing (checked by :mod:`pointax.fitting.programs` before storing)."""
+    return jax.tree_util.treedef_tuple([fit_result_structure(model, model.free_parameters), jax.tree.structure(0)])

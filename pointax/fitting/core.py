@@ -317,13 +317,25 @@ def fit_result(
 def result_structure(model: Model, free, obs: Observations, options: FitOptions):
     """The pytree structure of :func:`fit_core`'s result, built without tracing it (for
     :mod:`pointax.fitting.programs`; checked there against the traced one)."""
-    params = model.parameters
+    return fit_result_structure(model, model.parameters, options)
+
+
+def fit_result_structure(model: Model, params, options: FitOptions | None = None):
+    """The pytree structure of a :class:`FitResult` of ``model`` whose fitted parameters
+    are ``params`` (solver, loss and rejection from ``options``; None: the batched fast
+    pass's plain Gauss-Newton), built without tracing: what
+    :mod:`pointax.fitting.programs` needs to store a traced fit."""
     x = np.zeros(())
+    if options is None:
+        how = {"solver": "gauss-newton"}
+    else:
+        reject = options.reject if LOSSES[options.loss] is not None else 0.0
+        how = {"solver": options.solver, "loss": options.loss, "reject": reject}
     template = FitResult(
         model=model, values=x, sigmas=x, covariance=x, correlation=x, residuals=x, used=x, n_obs=x, sky_rms=x,
         popn_sd=x, loo_residuals=x, loo_rms=x, iterations=x, converged=x, status=x, degenerate=x, outliers=x,
         robust_scale=x, robust_converged=x, names=tuple(p.name for p in params), units=tuple(p.unit for p in params),
-        solver=options.solver, loss=options.loss, reject=options.reject if LOSSES[options.loss] is not None else 0.0,
+        **how,
     )  # fmt: skip
     return jax.tree.structure(template)
 

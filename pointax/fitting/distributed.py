@@ -40,7 +40,7 @@ from .result import FitResult
 from ..core.model import Model
 from ..core.observations import Observations
 
-__all__ = ["fit_batch_distributed"]
+__all__ = ["fit_batch_distributed", "fit_chunks_distributed", "site_summary", "SUMMARY_FIELDS"]
 
 
 def _dask():
@@ -197,3 +197,131 @@ def fit_batch_distributed(
     ordered = [parts[k] for k in sorted(parts)]
     merged = ordered[0] if len(ordered) == 1 else jax.tree.map(lambda *xs: np.concatenate(xs), *ordered)
     return jax.tree.map(jnp.asarray, merged)
+
+
+SUMMARY_FIELDS = ("values", "sigmas", "sky_rms", "n_obs", "iterations", "converged")
+"""What :func:`site_summary` keeps of a batched result: per site, no per-observation rows."""
+
+
+def site_summary(result: FitResult) -> dict[str, np.ndarray]:
+    """The per-site fields :data:`SUMMARY_FIELDS` of a batched result as NumPy arrays
+    (``values``, ``sigmas``: ``(S, M)`` radians; ``sky_rms``: ``(S,)`` radians;
+    ``n_obs``, ``iterations``: ``(S,)``; ``converged``: ``(S,)`` bool): a few numbers per
+    site where the full result carries every observation's residuals."""
+    return {name: np.asarray(getattr(result, name)) for name in SUMMARY_FIELDS}
+
+
+@float64
+def _fit_source_chunk(model: Model, source: Callable, k: int, summary: Callable, options: dict[str, Any]):
+    """One Dask task of :func:`fit_chunks_distributed`: chunk ``k`` read (or made) on
+    the worker, fitted, summarised."""
+    chunk = source(k)
+    observations, values = chunk if isinstance(chunk, tuple) else (chunk, None)
+    result = fit_batch(model, observations, values=values, **options)
+    return summary(_to_numpy(result))
+
+
+@float64
+def fit_chunks_distributed(
+    model: Model,
+    source: Callable[[int], Any],
+    n_chunks: int,
+    *,
+    client,
+    summary: Callable[[FitResult], Any] = site_summary,
+    on_chunk: Callable[[int, Any], None] | None = None,
+    max_in_flight: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    retries: int = 0,
+    **options: Any,
+) -> dict[str, np.ndarray] | None:
+    """Fit a network too large for one machine's memory: each chunk of sites is read
+    (or made) by ``source(k)`` on a worker, fitted there with :func:`pointax.fit_batch`,
+    and only its ``summary`` comes back.
+
+    Memory is bounded by the chunk size: a worker holds one chunk's observations and
+    result at a time (with ``nthreads`` 1), at most ``max_in_flight`` chunks are
+    submitted at once, and the client keeps the summaries (a few numbers per site) or,
+    with ``on_chunk``, hands each one on and keeps nothing.
+
+    Args:
+        model: the model (structure, fixed parameters, default starting values).
+        source: ``source(k)`` for ``k`` in ``range(n_chunks)``: ``(observations,
+            values)`` or ``observations`` alone (``(S, N, ...)``, e.g. from
+            :func:`pointax.stack_observations`; ``values (S, M)`` starting values or
+            None), run on the worker. A module-level function (or
+            ``functools.partial`` of one) that workers can import: it reads the chunk's
+            files, or simulates it. Give every chunk the same number of sites and rows
+            so that each worker compiles once.
+        n_chunks: number of chunks.
+        client: a ``distributed.Client`` or a scheduler address.
+        summary: ``summary(result)`` of a chunk's :class:`pointax.FitResult` (NumPy
+            arrays), run on the worker (default :func:`site_summary`).
+        on_chunk: ``on_chunk(k, summary)`` as each chunk comes back (any order); then
+            nothing is kept and None is returned.
+        max_in_flight: chunks submitted at once (default: twice the cluster's threads).
+        progress: ``progress(chunks_done, n_chunks)`` as chunks come back.
+        retries: times Dask may rerun a chunk whose worker died.
+        **options: further keyword arguments of :func:`pointax.fit_batch`.
+
+    Returns:
+        Without ``on_chunk``: the summaries' fields concatenated in chunk order (for
+        :func:`site_summary`: a dict of arrays with one row per site); else None.
+    """
+    distributed = _dask()
+    if isinstance(n_chunks, bool) or int(n_chunks) < 1:
+        raise ValueError(f"n_chunks must be a positive number, got {n_chunks!r}")
+    try:
+        inspect.signature(fit_batch).bind(model, None, **options)
+    except TypeError as err:
+        raise TypeError(f"fit_chunks_distributed: {err}") from None
+    own_client = isinstance(client, str)
+    if own_client:
+        client = distributed.Client(client)
+    shipped_model = _to_numpy(model)
+    kept: dict[int, Any] = {}
+    where: dict = {}  # future -> chunk, for those submitted and not yet back
+    try:
+        if max_in_flight is None:
+            threads = sum(w.get("nthreads", 1) for w in client.scheduler_info().get("workers", {}).values())
+            max_in_flight = 2 * max(threads, 1)
+        todo = iter(range(int(n_chunks)))
+        running = distributed.as_completed()
+
+        def submit() -> None:
+            k = next(todo, None)
+            if k is not None:
+                future = client.submit(
+                    _fit_source_chunk, shipped_model, source, k, summary, options, pure=False, retries=retries
+                )
+                where[future] = k
+                running.add(future)
+
+        for _ in range(max(1, int(max_in_flight))):
+            submit()
+        done = 0
+        for future in running:
+            k = where.pop(future)
+            try:
+                part = future.result()
+            except Exception as err:
+                err.add_note(f"fit_chunks_distributed: raised by chunk {k}")
+                raise
+            future.release()
+            submit()
+            if on_chunk is not None:
+                on_chunk(k, part)
+            else:
+                kept[k] = part
+            done += 1
+            if progress is not None:
+                progress(done, int(n_chunks))
+    finally:
+        for future in where:
+            future.cancel()
+        if own_client:
+            client.close()
+    if on_chunk is not None:
+        return None
+    ordered = [kept[k] for k in sorted(kept)]
+    return jax.tree.map(lambda *xs: np.concatenate(xs), *ordered)

@@ -305,6 +305,7 @@ def fit_shared(
         raise ValueError("no shared parameter given: use pointax.fit_batch")
     check_batch(observations)
     check_convention(model, observations)
+    observations = observations.only_readings(model.readings)
     model = model.with_values(model.values())
     alone = model.fix(*shared)
     own_params = alone.free_parameters
@@ -323,6 +324,7 @@ def fit_shared(
         np.asarray(observations.target, np.float64),
         np.asarray(observations.weight, np.float64),
         observations.convention,
+        {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
     )
     sites, p, joint, converged, iterations = _joint_fit(
         model, own_params, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(included), max_steps, rtol, atol
