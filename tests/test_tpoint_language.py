@@ -227,7 +227,7 @@ def test_every_construct_against_numpy_steps(mmt_run, tmp_path):
     assert "GC: graphics device kept; nothing written" in out
     assert "GSCAT A: drawn in panel BL; TPOINT options A not used" in out
     assert "CLRNG: display setting accepted (OFF)" in out and "CAPT OFF: captions on plots hidden" in out
-    assert "OUTDAT" in out and "  FIT     FIT: one linearised adjustment" in out
+    assert "OUTDAT" in out and "  FIT: one linearised (Gauss-Newton) adjustment" in out
     assert "FROB" not in out and session.zone is None and session.page is None
 
 

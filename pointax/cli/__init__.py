@@ -4,7 +4,8 @@
     pointax fit DIR --format paint [--terms t1n,t1u,t2e,t2n] [--loss cauchy] [--json]
     pointax fit FILE --format gpoint [--terms ia,ie,tn,te,npae,npoa,tf,az:sin:az:2,HACA2] [--json]
     pointax command DIRECTIONS --mount turntable --params mu0=0.0751,... [--reflect] [--json]
-    pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS]
+    pointax fit-network MANIFEST [--json] [--quiet] [--chunk-size N] [--scheduler ADDRESS] [--previous FILE.json]
+    pointax history RUN... [--terms ...] [--json] [--plot FILE] [--alarm N] [--vary TERM:READING[:DEGREE] ...]
     pointax centroid FRAME... [--json] [--method auto|intensity|limb]
     pointax compare DATA --families basic,harmonic,... [--holdout F | --folds K] [--json]
     pointax plot DATA [fit options] [--kind summary|residuals|sky|...] [--tpoint 'G S A'] -o FILE.png
@@ -106,12 +107,14 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..core.helptext import HELP_DIR, description
 from .centroid import add_centroid_parser
 from .inverse import add_command_parser
 from .common import print_warnings
 from .compare import add_compare_parser
 from .fit import add_fit_parser
 from .fit_network import add_fit_network_parser
+from .history import add_history_parser
 from .plan import add_plan_parser
 from .plot import add_plot_parser
 from .report import add_report_parser
@@ -121,7 +124,7 @@ __all__ = ["main", "build_parser"]
 
 _PROG = "pointax"
 
-SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser, add_tpoint_parser, add_plot_parser, add_report_parser, add_plan_parser)
+SUBCOMMANDS = (add_fit_parser, add_command_parser, add_fit_network_parser, add_centroid_parser, add_compare_parser, add_tpoint_parser, add_plot_parser, add_report_parser, add_plan_parser, add_history_parser)
 """Each adds its subcommand to the parser, with its ``run`` function as a default."""
 
 
@@ -156,6 +159,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     for add in SUBCOMMANDS:
         add(sub)
+    for name, subparser in sub.choices.items():  # descriptions: pointax/data/help/NAME.md, the site's text too
+        if (HELP_DIR / f"{name}.md").is_file():
+            subparser.description = description(name)
+            subparser.formatter_class = argparse.RawDescriptionHelpFormatter
     return parser
 
 

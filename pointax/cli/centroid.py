@@ -38,8 +38,6 @@ def add_centroid_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "centroid",
         help="find the sun's centre in sun-sensor frames (PNG, FITS, .npy)",
-        description="Find the sun's centre in sun-sensor frames. Coordinates: origin at the centre "
-        "of the top-left pixel, x to the right, y down.",
     )
     p.add_argument("frames", nargs="+", metavar="FRAME", help="frame files: .png (8 or 16 bit), .fits, .npy")
     p.add_argument("--json", action="store_true", help="print one JSON list, an object per frame")

@@ -154,7 +154,6 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "compare",
         help="fit several model families to one pointing run and compare them (in/out-of-sample RMS, AIC, BIC)",
-        description="Fit several model families to one pointing run and compare them fairly.",
     )
     p.add_argument(
         "data", help="pointing run: TPOINT file, gpoint file or X-Y text file (told from the file, or --format)"

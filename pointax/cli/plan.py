@@ -90,8 +90,6 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "plan",
         help="choose the observations of the next pointing run and predict the accuracy of its fit",
-        description="Choose the stars (or sun times) that pin a pointing model down best, in observing order, "
-        "with the predicted accuracy of the fit.",
     )
     source = p.add_mutually_exclusive_group()
     source.add_argument("--sun", action="store_true", help="sun tracker: candidates are sun positions over --days")

@@ -32,7 +32,6 @@ def add_plot_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "plot",
         help="fit a pointing run and draw the fit (png, svg, pdf or PostScript)",
-        description="Fit a pointing run as 'pointax fit' does and draw it. The file's extension names the format.",
     )
     add_fit_options(p)
     p.add_argument(
@@ -75,14 +74,13 @@ def fitted_observations(outcome):
     """The observations as fitted: the run's weights with ``outcome.masked`` at 0."""
     import numpy as np
 
-    from ..core.observations import Observations
 
     obs = outcome.observations
     masked = outcome.masked
     if masked is None or not np.any(masked):
         return obs
     weight = np.where(np.asarray(masked, bool), 0.0, np.asarray(obs.weight, float))
-    return Observations(obs.encoder, obs.target, weight, obs.convention)
+    return obs.with_weight(weight)
 
 
 def figures_from_outcome(outcome, kinds=None, commands=None) -> list[tuple[str, object]]:

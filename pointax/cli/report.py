@@ -31,8 +31,6 @@ def add_report_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "report",
         help="fit a pointing run and write a self-contained HTML report",
-        description="Fit a pointing run as 'pointax fit' does and write one HTML file with the fit table, "
-        "statistics, warnings, plots (embedded PNG) and the residual listing.",
     )
     add_fit_options(p)
     p.add_argument(

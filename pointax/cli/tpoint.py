@@ -28,11 +28,6 @@ def add_tpoint_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "tpoint",
         help="run TPOINT commands (INDAT, USE, FIT, MASK, OUTMOD, PROC, ...) from files or standard input",
-        description="Run TPOINT commands from files in turn, or from standard input (interactively when it "
-        "is a terminal). Commands: INDAT INMOD OUTMOD USE LOSE FIX UNFIX FIT SLIST MASK UNMASK FAUTO ADJUST SHOW "
-        "PROC/RETURN INPRO CALL G.../GC/PLTZ CAPT HELP END; words are case-insensitive and may be abbreviated; "
-        "! and ; start comments; file names may be quoted. TPOINT commands pointax does not run (OUTDAT, "
-        "OUTPRO, CHAIN, PARALLEL, GHYST) and display settings (CLRNG, PLTON, ...) get a one-line note.",
     )
     p.add_argument("scripts", nargs="*", metavar="SCRIPT", help="command files; file names in them are relative to their folder")
     p.add_argument(

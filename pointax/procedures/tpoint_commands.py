@@ -324,7 +324,7 @@ def _fauto_cv(s: Session, names: list[str], rows: np.ndarray) -> None:
 def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
     """FAUTO [NAME ...]: TPOINT-style automatic model building (:func:`pointax.analysis.fauto`):
     from the terms in use and the mount's basic physical terms, try the further physical
-    terms, then harmonics to order 3 (or only the named candidates), keeping those with
+    terms, then harmonics to order 8 (or only the named candidates), keeping those with
     |value/sigma| >= 2 that lower Popn SD and mimic no term in the model; prints the steps,
     weak outlier candidates and pairs not reliably distinguished, on the unmasked stars.
     FAUTO CV [NAME ...]: the cross-validated builder (:func:`pointax.build_model`) instead."""
@@ -396,30 +396,32 @@ def _skipped(word: str):
     return cmd_skipped
 
 
-def _first_line(fn) -> str:
-    """The first sentence of ``fn``'s docstring, on one line (what HELP shows)."""
-    paragraph = " ".join((fn.__doc__ or "").strip().split("\n\n")[0].split())
-    paragraph = re.sub(r":\w+:`~?([^`]*)`", r"\1", paragraph).replace("``", "")
-    end = re.search(r"(?<!\.)\.(\s|$)", paragraph)
-    return paragraph if end is None else paragraph[: end.start() + 1]
-
-
 def cmd_help(s: Session, args: list[str], line: Line) -> None:
     """HELP [WORD]: the commands (or one of them): what pointax runs, the display
-    settings it notes, and TPOINT's commands it does not implement."""
+    settings it notes, and TPOINT's commands it does not implement. The texts are
+    ``pointax/data/help/tpoint_commands.md``, the documentation site's too
+    (:mod:`pointax.core.helptext`), printed whole, filled at spaces."""
+    from ..core.helptext import fill, tpoint_entries
     from .parser import resolve
 
+    entries = tpoint_entries()
+    described = {w for words, _ in entries for w in words}
+    # A command without an entry in the file: its docstring's first paragraph, whole.
+    extra = [((w,), _first_paragraph(COMMAND_FUNCTIONS[w])) for w in COMMANDS if w not in described and w in COMMAND_FUNCTIONS]
     if args:
         word = resolve(args[0])
-        fn = COMMAND_FUNCTIONS.get(word)
-        s.say(f"  {word:<7s} {_first_line(fn) if fn else _RUNNER_HELP.get(word, '')}")
-        return
-    for word in COMMANDS:
-        fn = COMMAND_FUNCTIONS.get(word)
-        s.say(f"  {word:<7s} {_first_line(fn) if fn else _RUNNER_HELP.get(word, '')}")
-    s.say("  G...    " + _first_line(cmd_graph))
-    s.say(f"  noted, no effect: {' '.join(NOTED_SETTINGS)}")
-    s.say(f"  TPOINT's, not implemented (a note): {' '.join(NOT_IMPLEMENTED)} {' '.join(GRAPHICS_NOT_DRAWN)}")
+        word = "G..." if word == "G" else word
+        entries = [e for e in entries + extra if word in e[0]] or [((word,), _RUNNER_HELP.get(word, ""))]
+    else:
+        entries = entries + extra
+    for _, text in entries:
+        s.say(fill(text, 88, indent="  ", subsequent="      "))
+
+
+def _first_paragraph(fn) -> str:
+    """The first paragraph of ``fn``'s docstring on one line, without reST markup."""
+    paragraph = " ".join((fn.__doc__ or "").strip().split("\n\n")[0].split())
+    return re.sub(r":\w+:`~?([^`]*)`", r"\1", paragraph).replace("``", "")
 
 
 _RUNNER_HELP = {
