@@ -221,3 +221,26 @@ def test_compare_cli_unknown_family_exit_2(capsys):
     assert main(["compare", str(MMT_DAT), "--azimuth", "S-E", "--families", "basic,nosuch"]) == 2
     err = capsys.readouterr().err
     assert "unknown family 'nosuch'" in err and "NOSUCH" not in err
+
+
+def test_fauto_drops_an_insignificant_start_term_only_when_asked():
+    """keep_start=False: a start term with no signal (TX, 0 in the truth) is dropped at
+    the start, as TPOINT's FAUTO holds such basic terms at 0; its |value/sigma| in
+    NumPy's least squares of the start terms is below 2 and the lowest of them all."""
+    values = {k: v for k, v in TRUTH.items() if k in BASIC and k != "TX"}
+    truth = px.AltAz(tpoint(list(values), values={k: v * ARCSEC for k, v in values.items()}))
+    rng = np.random.default_rng(11)
+    enc = np.stack(
+        [rng.uniform(0, 2 * np.pi, 60), np.arcsin(rng.uniform(np.sin(np.radians(15)), np.sin(np.radians(85)), 60))], 1
+    )
+    obs = px.simulate(truth, enc, noise=0.5 * ARCSEC, seed=4)
+    template = px.AltAz(tpoint(BASIC))
+    coef, resid, jac = _numpy_fit(template, BASIC, obs)
+    sky = np.sqrt(np.sum(resid**2) / (len(resid) // 2))
+    z = np.abs(coef) / (sky * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac))))
+    assert BASIC[int(np.argmin(z))] == "TX" and z.min() < 2 and np.sort(z)[1] >= 2
+    dropped = fauto(obs, max_order=0, further=(), keep_start=False)
+    assert [(s.stage, s.action, s.term) for s in dropped.steps[1:]] == [("start", "drop", "TX")]
+    assert "TX" not in dropped.names and len(dropped.names) == 7
+    kept = fauto(obs, max_order=0, further=())
+    assert list(kept.names) == BASIC and len(kept.steps) == 1

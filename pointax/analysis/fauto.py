@@ -14,9 +14,13 @@ purpose, not its numerical rule, so the thresholds here are pointax's choice):
   ``(J^T J)^-1``) are eligible; the one with the lowest Popn SD is added (ties: the
   first in candidate order), and the model refitted;
 * **drop**: after each addition, while a term FAUTO added has ``|value / sigma| <
-  significance``, the least significant one is dropped (and not tried again);
+  significance``, the least significant one is dropped (and not tried again); with
+  ``keep_start=False`` the start terms too, from the start fit on (TPOINT's FAUTO
+  models hold such basic terms at 0: IE, CA, NPAE in the Rubin AuxTel models of
+  ``benchmarks/fauto_notes.md``);
 * **stages**: the further physical terms first; then the harmonics of every order up
-  to ``max_order`` together (lower orders first in the candidate order, which breaks
+  to ``max_order`` (default 8: TPOINT's FAUTO models hold harmonics to order 8, none
+  higher) together (lower orders first in the candidate order, which breaks
   ties); a stage ends when no candidate is eligible. (Opening the orders one at a time
   lets a low-order harmonic take the place of a higher-order one the data hold: on a
   simulated run with HECE3, HECE2 came in at order 2 and HECE3 was then left out.)
@@ -253,8 +257,9 @@ def _correlations(jac: np.ndarray, cols: Sequence[int]) -> np.ndarray | None:
     if np.linalg.matrix_rank(a, tol=1e-10) < a.shape[1]:
         return None
     cov = np.linalg.inv(a.T @ a)
-    d = np.sqrt(np.diag(cov))
-    r = cov / np.outer(d, d)
+    with np.errstate(invalid="ignore"):  # a negative variance (near dependence): NaN, None below
+        d = np.sqrt(np.diag(cov))
+        r = cov / np.outer(d, d)
     if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1 + 1e-6:
         return None
     return np.clip(r, -1.0, 1.0)
@@ -323,7 +328,7 @@ def fauto(
     *,
     start: Model | str | None = None,
     further: Iterable[str] | None = None,
-    max_order: int = 3,
+    max_order: int = 8,
     harmonics: Iterable[str] | None = None,
     significance: float = 2.0,
     collinearity: float = 0.99,
@@ -341,13 +346,17 @@ def fauto(
             mount's basic physical terms (:data:`FAUTO_PHYSICAL`: alt-az IA IE CA NPAE AN
             AW TF TX, equatorial IH ID CH NP MA ME TF, X-Y the basic family).
         further: further physical terms tried first (default :data:`FAUTO_PHYSICAL`'s).
-        max_order: highest harmonic order tried (:func:`harmonic_candidates`; default 3).
+        max_order: highest harmonic order tried (:func:`harmonic_candidates`; default 8,
+            the highest order in TPOINT's FAUTO models, ``benchmarks/fauto_notes.md``).
         harmonics: harmonic names to try instead (all in the first harmonic stage).
         significance: the ``|value / sigma|`` a term needs to be added and to stay (default 2).
         collinearity: a candidate whose parameter correlation with a term in the model
             exceeds this in absolute value is not tried (default 0.99).
-        keep_start: the start model's terms are never dropped (default True, as TPOINT's
-            FAUTO models keep the mount's physical terms).
+        keep_start: the start model's terms are never dropped (default True). False: a
+            start term that is, or becomes, less significant than ``significance`` is
+            dropped like an added one, as TPOINT's FAUTO holds such basic terms at 0; on
+            a simulated run with CA and NPAE both planted that drops both (they are
+            correlated), so it is not the default.
         outlier_sigmas: observations whose on-sky residual exceeds this many Popn SD are
             reported as weak outlier candidates (default 3).
         correlated: fitted pairs with ``|r|`` at least this are reported (default 0.95).
@@ -392,6 +401,21 @@ def fauto(
     steps = [FautoStep("start", "start", " ".join(names[:n_start]), state.n_params, state.sky_rms,
                        search.popn(state), math.nan)]
     barred: set[int] = set()
+
+    def drop_weak(state: FitState, stage: str) -> FitState:
+        """While a term that may be dropped has ``|value / sigma| < significance``, drop
+        the least significant one (it is not tried again) and refit."""
+        while True:
+            z = {t: builder.significance(state, t) for t in sorted(state.active - kept)}
+            weak = [t for t in z if z[t] < significance]
+            if not weak:
+                return state
+            t = min(weak, key=lambda k: (z[k], k))
+            barred.add(t)
+            state = builder.state(state.active - {t}, state.y)
+            steps.append(FautoStep(stage, "drop", names[t], state.n_params, state.sky_rms, search.popn(state), z[t]))
+
+    state = drop_weak(state, "start")
     open_ids: list[int] = []
     for stage, stage_names in stages:
         open_ids += [index[n] for n in stage_names if builder.columns.get(index[n])]
@@ -412,15 +436,7 @@ def fauto(
             state = builder.state(state.active | {best[0]}, state.y)
             steps.append(FautoStep(stage, "add", names[best[0]], state.n_params, state.sky_rms, search.popn(state),
                                    builder.significance(state, best[0])))
-            while True:
-                z = {t: builder.significance(state, t) for t in sorted(state.active - kept)}
-                weak = [t for t in z if z[t] < significance]
-                if not weak:
-                    break
-                t = min(weak, key=lambda k: (z[k], k))
-                barred.add(t)
-                state = builder.state(state.active - {t}, state.y)
-                steps.append(FautoStep(stage, "drop", names[t], state.n_params, state.sky_rms, search.popn(state), z[t]))
+            state = drop_weak(state, stage)
     result = _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
                      significance, collinearity, keep_start, max_order)
     return dataclasses.replace(result, outliers=tuple((int(in_use[i]), r) for i, r in result.outliers))
