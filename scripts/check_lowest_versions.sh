@@ -27,6 +27,8 @@ fi
 pip_install() { "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$@"; }
 pip_install -c scripts/lowest-versions.txt ".[plot]" pytest pytest-xdist
 "$venv/bin/python" -m pip check --disable-pip-version-check
+# Bytecode for the dependencies (pip writes none under PYTHONDONTWRITEBYTECODE): see setup.sh.
+"$venv/bin/python" -m compileall -q -j 0 "$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')" >/dev/null 2>&1 || true
 # Every pin must be what got installed (pip -c only constrains what something asks for).
 "$venv/bin/python" - <<'PY'
 import re, sys

@@ -70,11 +70,11 @@ def shared_data() -> Path:
 # files out in this order, so that neither worker is left with a long file at the end
 # while the other idles (the longest files of a quiet 2-core run; the rest keep their order).
 _LONGEST_FILES = (
-    "test_fauto.py", "test_examples_sunsensor.py", "test_examples_compare.py", "test_network.py",
-    "test_readme_commands.py", "test_fit_outputs.py", "test_tpoint_repertoire.py", "test_paint_actuators.py",
-    "test_tpoint_language.py", "test_cli_fit_start.py", "test_batch.py", "test_shared.py",
-    "test_compare.py", "test_procedures.py", "test_fitting_core.py", "test_graphics_pages.py",
-    "test_gpoint.py", "test_inverse_properties.py", "test_out_of_sample.py",
+    "test_pooled.py", "test_readme_commands.py", "test_robust.py", "test_fauto.py", "test_fitting_core.py",
+    "test_examples_sunsensor.py", "test_network.py", "test_examples_compare.py", "test_fit.py",
+    "test_batch_fast_pass.py", "test_distributed.py", "test_cli_fit_start.py", "test_residual_form.py",
+    "test_tpoint_repertoire.py", "test_io_offsets.py", "test_statuses.py", "test_shared.py",
+    "test_io_tpoint_equatorial.py", "test_network_speed.py", "test_edges_cli.py", "test_fit_outputs.py",
 )  # fmt: skip
 
 
