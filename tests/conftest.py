@@ -78,6 +78,18 @@ _LONGEST_FILES = (
 )  # fmt: skip
 
 
+@pytest.fixture(autouse=True)
+def _programs_folder_restored():
+    """A test that runs the CLI in-process turns the stored programs on
+    (`enable_compilation_cache`); later tests in the worker would then load stored
+    programs where they count traces and compilations. Restored after every test."""
+    from pointax.fitting import programs
+
+    before = programs.directory()
+    yield
+    programs.set_directory(before)
+
+
 def pytest_collection_modifyitems(config, items):
     def rank(item):
         name = item.nodeid.split("::")[0].rsplit("/", 1)[-1]
