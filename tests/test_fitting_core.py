@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from compile_counter import COUNTER
 from conftest import MMT_DAT
 
 import pointax as px
@@ -20,29 +21,6 @@ from pointax.core.term import angle_pair
 from pointax.core.units import ARCSEC
 
 TERMS = "IA IE NPAE CA AN AW TF TX".split()
-
-
-class CompileCounter:
-    """Counts XLA compilations (JAX's backend-compile events) while active."""
-
-    def __init__(self):
-        self.count = 0
-        self.active = False
-        jax.monitoring.register_event_duration_secs_listener(self._event)
-
-    def _event(self, event, duration, **kwargs):
-        if self.active and event == "/jax/core/compile/backend_compile_duration":
-            self.count += 1
-
-    def __enter__(self):
-        self.count, self.active = 0, True
-        return self
-
-    def __exit__(self, *exc):
-        self.active = False
-
-
-COUNTER = CompileCounter()
 
 
 @pytest.fixture(scope="module", autouse=True)

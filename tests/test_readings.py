@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from compile_counter import COUNTER
 from numpy_rotations import angle_between
 
 import pointax as px
@@ -163,28 +163,6 @@ def test_fit_recovers_noise_free_truth_and_batch():
     for k in range(3):
         want = np.asarray(truth.set(IA=(20 + 5 * k) * ARCSEC).values())
         np.testing.assert_allclose(np.asarray(batch.values[k]), want, atol=1e-10)
-
-
-class CompileCounter:
-    """Counts XLA compilations (JAX's backend-compile events) while active."""
-
-    def __init__(self):
-        self.count, self.active = 0, False
-        jax.monitoring.register_event_duration_secs_listener(self._event)
-
-    def _event(self, event, duration, **kwargs):
-        if self.active and event == "/jax/core/compile/backend_compile_duration":
-            self.count += 1
-
-    def __enter__(self):
-        self.count, self.active = 0, True
-        return self
-
-    def __exit__(self, *exc):
-        self.active = False
-
-
-COUNTER = CompileCounter()
 
 
 def test_new_readings_and_fixed_sets_do_not_recompile():
