@@ -348,6 +348,19 @@ def _status_of(result: FitResult) -> dict[str, str]:
     return site_statuses(jax.tree.map(lambda x: jnp.asarray(x)[None], result))[0]
 
 
+def _read_sites(entries) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+    """Every site's data, read: ``(loaded, failed)``, each keyed by site; a site whose file
+    cannot be read is ``failed`` with the reason (file, line and field), not dropped."""
+    loaded: dict[str, Any] = {}
+    failed: dict[str, dict[str, Any]] = {}
+    for entry in entries:
+        try:
+            loaded[entry.site] = _read(entry)
+        except (ValueError, OSError) as err:
+            reason = str(err) if not isinstance(err, OSError) else f"{err.filename or entry.path}: {err.strerror or err}"
+            failed[entry.site] = {**_header(entry), "status": "failed", "reason": reason, "converged": False}
+    return loaded, failed
+
 def _read(entry: SiteEntry):
     """The site's data, or raise with the reader's message (file, line, field)."""
     if entry.format == "sun":
@@ -427,14 +440,7 @@ def fit_network(
         raise ValueError(f"chunk_size must be a positive number of sites or None, got {chunk_size!r}")
     start_time = time.perf_counter()
     entries = read_manifest(manifest)
-    out: dict[str, dict[str, Any]] = {}
-    loaded: dict[str, Any] = {}
-    for entry in entries:
-        try:
-            loaded[entry.site] = _read(entry)
-        except (ValueError, OSError) as err:
-            reason = str(err) if not isinstance(err, OSError) else f"{err.filename or entry.path}: {err.strerror or err}"
-            out[entry.site] = {**_header(entry), "status": "failed", "reason": reason, "converged": False}
+    loaded, out = _read_sites(entries)
 
     to_fit = [e for e in entries if e.site in loaded]
     bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None

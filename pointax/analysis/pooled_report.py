@@ -22,7 +22,7 @@ from typing import Any
 from ..core.precision import float64
 from ..fitting.batch import stack_observations
 from ..fitting.pooled import fit_pooled
-from .network import _batch_model, _calibrate, _fit_group, _header, _read, _start_values, read_manifest
+from .network import _batch_model, _calibrate, _fit_group, _header, _read_sites, _start_values, read_manifest
 
 __all__ = ["MIN_SITES", "ENCODER_ZEROS", "PooledNetworkResult", "pooled_network"]
 
@@ -111,14 +111,8 @@ def pooled_network(manifest: str | os.PathLike, *, k: float = 3.0, solver: str =
     """
     start_time = time.perf_counter()
     entries = read_manifest(manifest)
-    out: dict[str, dict[str, Any]] = {}
-    loaded: dict[str, Any] = {}
-    for entry in entries:
-        try:
-            loaded[entry.site] = _read(entry)
-        except (ValueError, OSError) as err:
-            reason = str(err) if not isinstance(err, OSError) else f"{err.filename or entry.path}: {err.strerror or err}"
-            out[entry.site] = {**_header(entry), "status": "failed", "reason": reason, "converged": False, "pooled": False}
+    loaded, out = _read_sites(entries)
+    out = {site: {**record, "pooled": False} for site, record in out.items()}
     groups: dict[tuple, list] = {}
     for entry in entries:
         if entry.site in loaded and entry.format != "paint":
