@@ -91,14 +91,7 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
         if client is not None:
             client.close()
     moves = mark_moves(args, result, previous)  # per site 'moved' when --previous is given
-    if args.json:
-        print(result.to_json(), file=stdout)
-        if not args.quiet:
-            print(result.summary(), file=stderr)
-    else:
-        print(result.table(), file=stdout)
-        print("", file=stdout)
-        print(result.summary(), file=stdout)
+    _print_result(args, result, stdout, stderr)
     if moves is not None and not (args.json and args.quiet):
         print(moves, file=stderr if args.json else stdout)
     return 0 if result.all_converged else 1
@@ -127,6 +120,13 @@ def _run_pooled(args: argparse.Namespace, stdout: TextIO, stderr: TextIO, fail) 
         return fail(err)
     except OSError as err:
         return fail(os_error_text(err, args.manifest))
+    _print_result(args, result, stdout, stderr)
+    return 0 if result.all_converged else 1
+
+
+def _print_result(args: argparse.Namespace, result, stdout: TextIO, stderr: TextIO) -> None:
+    """A network's result (independent or pooled): ``--json`` on standard output with the
+    summary on standard error (not with ``--quiet``), else the table and the summary."""
     if args.json:
         print(result.to_json(), file=stdout)
         if not args.quiet:
@@ -135,4 +135,3 @@ def _run_pooled(args: argparse.Namespace, stdout: TextIO, stderr: TextIO, fail) 
         print(result.table(), file=stdout)
         print("", file=stdout)
         print(result.summary(), file=stdout)
-    return 0 if result.all_converged else 1
