@@ -334,3 +334,28 @@ def test_fit_network_pooled_on_the_example_manifest(monkeypatch):
         if name != "ts-05":  # fixed by its own data: moved by a few of its own sigmas at most
             assert all(p["shrinkage"] < 3 for p in d["params"]), (name, d["params"])
     assert sites["ts-05"]["params"][0]["independent_value"] is None  # not fixed by its data alone
+
+
+@pytest.mark.slow  # its own pooled program: about 20 s of compilation
+def test_readings_reach_the_pooled_fit():
+    """A term that reads the temperature (``thermal("TF")``: TF + slope (T - 10 C)) pools
+    with the readings of each site: every site's independent estimate equals NumPy's
+    least squares on its TPOINT design matrix with the slope's column ``TF basis x (T - 10)``
+    (a fit that lost the readings would refuse them, or fit without the slope)."""
+    r = np.random.default_rng(7)
+    sites = [_site(n, 30 + s) for s, n in enumerate([12, 15, 20, 40])]
+    temps = [r.uniform(-5.0, 25.0, len(s[2])) for s in sites]
+    batch = px.stack_observations(
+        [px.Observations(s[0].encoder, s[0].target, convention="N-E", readings={"temperature": t})
+         for s, t in zip(sites, temps)]  # fmt: skip
+    )
+    thermal_tf = px.terms.thermal(px.terms.tpoint("TF", form="linear")[0], reference=10.0)
+    terms = [*px.terms.tpoint("IA IE AN AW", form="linear"), thermal_tf]
+    model = px.AltAz(terms, residual_form="tpoint")
+    fit = px.fit_pooled(model, batch, covariance="diagonal")
+    assert fit.names == ("IA", "IE", "AN", "AW", "TF@temperature.value", "TF@temperature.slope")
+    for s, ((_, _, observed, raw), t) in enumerate(zip(sites, temps)):
+        F, d = _design(observed, raw)
+        slope = F[:, -1] * (np.concatenate([t, t]) - 10.0)
+        y_hat = np.linalg.lstsq(np.column_stack([F, slope]), d, rcond=None)[0]
+        np.testing.assert_allclose(np.asarray(fit.independent_values[s]), y_hat, rtol=1e-8)

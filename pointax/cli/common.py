@@ -1,15 +1,19 @@
-"""What the subcommands share: error messages and the check of input paths that runs
-before any numerical library is imported."""
+"""What the subcommands share: error messages, the check of input paths that runs
+before any numerical library is imported, and argument types (:func:`positive_float`)."""
 
 from __future__ import annotations
 
+import argparse
 import errno
 import os
 import sys
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 
-__all__ = ["error", "missing_input", "os_error_text", "print_warnings", "EXIT_OK", "EXIT_SOME_FAILED", "EXIT_BAD_INPUT"]
+__all__ = [
+    "error", "missing_input", "os_error_text", "guarded_run", "positive_float", "print_warnings",
+    "EXIT_OK", "EXIT_SOME_FAILED", "EXIT_BAD_INPUT",
+]  # fmt: skip
 
 EXIT_OK = 0
 """Exit status: everything succeeded."""
@@ -41,6 +45,33 @@ def missing_input(paths: Iterable[str | os.PathLike | None]) -> str | None:
 def os_error_text(err: OSError, fallback: object) -> str:
     """``'FILE: reason'`` for an OSError (its own file name when it has one)."""
     return f"{err.filename or fallback}: {err.strerror or err}"
+
+
+def guarded_run(prefix: str, body: Callable[[object], int], args, paths: Sequence[str | os.PathLike | None]) -> int:
+    """``body(args)``, once each of ``paths`` exists (:func:`missing_input`); bad input
+    (ValueError, KeyError, OSError) prints ``prefix: error: ...`` and gives 2 (an
+    OSError that names no file is put on ``paths[0]``)."""
+    missing = missing_input(paths)
+    if missing:
+        return error(prefix, missing)
+    try:
+        return body(args)
+    except (ValueError, KeyError) as err:
+        return error(prefix, err)
+    except OSError as err:
+        return error(prefix, os_error_text(err, paths[0]))
+
+
+def positive_float(text: str) -> float:
+    """An ``argparse`` type: ``text`` as a finite positive float, else
+    :class:`argparse.ArgumentTypeError` saying why."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
+    return value
 
 
 def print_warnings(prefix: str = "pointax") -> None:

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from . import choices
-from .common import error, missing_input, os_error_text
+from .common import error, guarded_run, positive_float
 
 __all__ = [
     "FIT_FORMATS",
@@ -37,16 +37,6 @@ FIT_FORMATS = ("tpoint", "paint", "gpoint", "offsets")
 """The run formats ``pointax fit`` fits."""
 
 _PREFIX = "pointax"
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return value
 
 
 def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
@@ -169,14 +159,14 @@ def add_fit_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument(
         "--mask-above",
         metavar="ARCSEC",
-        type=_positive_float,
+        type=positive_float,
         default=None,
         help="TPOINT's MASK R > ARCSEC: fit, mask the observations whose on-sky residual exceeds ARCSEC, refit",
     )
     p.add_argument(
         "--reject",
         metavar="SIGMAS",
-        type=_positive_float,
+        type=positive_float,
         default=None,
         help="robust fit: flag observations whose residual norm exceeds SIGMAS robust standard deviations "
         "(median residual norm / 1.1774) and leave them out of the final least-squares fit "
@@ -257,15 +247,7 @@ class FitOutcome:
 def guarded(args: argparse.Namespace, body: Callable[[argparse.Namespace], int], prefix: str = _PREFIX) -> int:
     """Run ``body(args)`` after checking that ``args.data`` exists; a bad input
     (ValueError, KeyError, OSError) prints ``prefix: error: ...`` and gives 2."""
-    missing = missing_input([args.data, getattr(args, "model", None)])
-    if missing:
-        return error(prefix, missing)
-    try:
-        return body(args)
-    except (ValueError, KeyError) as err:
-        return error(prefix, err)
-    except OSError as err:
-        return error(prefix, os_error_text(err, err.filename or args.data))
+    return guarded_run(prefix, body, args, [args.data, getattr(args, "model", None)])
 
 
 def run_fit(args: argparse.Namespace) -> int:

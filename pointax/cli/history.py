@@ -34,7 +34,7 @@ import argparse
 import sys
 
 from . import choices
-from .common import error, missing_input, os_error_text
+from .common import error, missing_input, os_error_text, positive_float
 
 __all__ = ["HISTORY_FORMATS", "add_history_parser", "run_history", "parse_vary"]
 
@@ -42,16 +42,6 @@ HISTORY_FORMATS = ("tpoint", "gpoint", "offsets")
 """The run formats ``pointax history`` reads."""
 
 _PREFIX = "pointax history"
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return value
 
 
 def parse_vary(items) -> dict[str, tuple[str, int]]:
@@ -99,7 +89,7 @@ def add_history_parser(subparsers) -> argparse.ArgumentParser:
         help="terms to fit, comma or space separated (default: TPOINT's " + ",".join(choices.BASIC_ALTAZ) + "; for "
         "equatorial runs " + ",".join(choices.BASIC_EQUATORIAL) + ")",
     )
-    p.add_argument("--alarm", type=_positive_float, default=3.0, metavar="N",
+    p.add_argument("--alarm", type=positive_float, default=3.0, metavar="N",
                    help="alarm for a change beyond N sigma between consecutive runs (default: %(default)s)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--plot", metavar="FILE", help="draw each coefficient against time to FILE (.png, .svg, .pdf, .ps, .eps)")
@@ -123,7 +113,7 @@ def add_history_parser(subparsers) -> argparse.ArgumentParser:
                    help="how the TPOINT terms are applied (default: %(default)s)")  # fmt: skip
     p.add_argument("--residuals", choices=list(choices.RESIDUAL_FORMS), default="sky",
                    help="what the fits minimise: sky (default) or tpoint")  # fmt: skip
-    p.add_argument("--reject", metavar="SIGMAS", type=_positive_float, default=None,
+    p.add_argument("--reject", metavar="SIGMAS", type=positive_float, default=None,
                    help="robust fits (Cauchy loss): leave out each run's observations beyond SIGMAS robust standard "
                    "deviations (as pointax fit --reject)")  # fmt: skip
     p.add_argument("--solver", choices=sorted(choices.SOLVERS), default="lm", help="least-squares solver (default: lm)")
@@ -260,7 +250,7 @@ def add_previous_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--previous", metavar="FILE.json", default=None,
                    help="a previous 'pointax fit-network --json' output: name the sites and terms that moved beyond "
                    "--alarm sigma since (per site 'moved' in the JSON)")  # fmt: skip
-    p.add_argument("--alarm", type=_positive_float, default=3.0, metavar="N",
+    p.add_argument("--alarm", type=positive_float, default=3.0, metavar="N",
                    help="with --previous: a change beyond N sigma is a move (default: %(default)s)")  # fmt: skip
 
 

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from . import choices
-from .common import error, missing_input, os_error_text
+from .common import guarded_run
 
 __all__ = ["add_command_parser", "run_command", "read_directions", "parse_params"]
 
@@ -68,15 +68,7 @@ def add_command_parser(subparsers) -> argparse.ArgumentParser:
 def run_command(args: argparse.Namespace) -> int:
     """Run ``pointax command`` for parsed ``args``; returns the exit status (0 every
     direction commanded, 1 some were not, 2 bad input)."""
-    missing = missing_input([args.directions, args.model])
-    if missing:
-        return error(_PREFIX, missing)
-    try:
-        return _command(args)
-    except (ValueError, KeyError) as err:
-        return error(_PREFIX, err)
-    except OSError as err:
-        return error(_PREFIX, os_error_text(err, args.directions))
+    return guarded_run(_PREFIX, _command, args, [args.directions, args.model])
 
 
 def _number(x) -> float | None:

@@ -19,7 +19,7 @@ import re
 from .common import error
 from .fit import add_fit_options, guarded
 
-__all__ = ["PLOT_KINDS", "add_plot_parser", "run_plot", "figures_from_outcome", "write_figures"]
+__all__ = ["PLOT_KINDS", "add_plot_parser", "add_figure_options", "run_plot", "figures_from_outcome", "write_figures"]
 
 PLOT_KINDS = ("summary", "residuals", "sky", "scatter", "histogram", "tpoint9")
 """The kinds of :func:`pointax.plots.fit_figure` (a light copy for the parser)."""
@@ -34,25 +34,24 @@ def add_plot_parser(subparsers) -> argparse.ArgumentParser:
         help="fit a pointing run and draw the fit (png, svg, pdf or PostScript)",
     )
     add_fit_options(p)
-    p.add_argument(
-        "--kind",
-        action="append",
-        choices=PLOT_KINDS,
-        default=None,
-        help="what to draw (repeatable; default summary): summary, residuals (each component against each axis "
+    add_figure_options(
+        p,
+        kind_help="what to draw (repeatable; default summary): summary, residuals (each component against each axis "
         "angle and against each other), sky (sky map with residual vectors), scatter, histogram, tpoint9 "
         "(TPOINT's nine-panel A9 set)",
-    )
-    p.add_argument(
-        "--tpoint",
-        action="append",
-        default=None,
-        metavar="COMMAND",
-        help="draw a TPOINT graphics command instead, e.g. 'G S A', 'GZZ', 'GSMAP', 'GHIST', 'A9' (repeatable)",
+        tpoint_help="draw a TPOINT graphics command instead, e.g. 'G S A', 'GZZ', 'GSMAP', 'GHIST', 'A9' (repeatable)",
     )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="output file: .png, .svg, .pdf, .ps or .eps")
     p.set_defaults(run=run_plot)
     return p
+
+
+def add_figure_options(parser: argparse.ArgumentParser, *, kind_help: str, tpoint_help: str) -> None:
+    """Add the figure options of ``pointax plot`` and ``pointax report`` to ``parser``:
+    ``--kind`` (repeatable, one of :data:`PLOT_KINDS`) and ``--tpoint COMMAND``
+    (repeatable, a TPOINT graphics command), each with its command's help text."""
+    parser.add_argument("--kind", action="append", choices=PLOT_KINDS, default=None, help=kind_help)
+    parser.add_argument("--tpoint", action="append", default=None, metavar="COMMAND", help=tpoint_help)
 
 
 def _check_output(path: str) -> None:

@@ -16,7 +16,7 @@ import os
 
 from .common import error
 from .fit import add_fit_options, guarded
-from .plot import PLOT_KINDS
+from .plot import add_figure_options
 
 __all__ = ["REPORT_KINDS", "add_report_parser", "run_report"]
 
@@ -33,15 +33,11 @@ def add_report_parser(subparsers) -> argparse.ArgumentParser:
         help="fit a pointing run and write a self-contained HTML report",
     )
     add_fit_options(p)
-    p.add_argument(
-        "--kind",
-        action="append",
-        choices=PLOT_KINDS,
-        default=None,
-        help="figures to include (repeatable; default: " + ", ".join(REPORT_KINDS) + ")",
+    add_figure_options(
+        p,
+        kind_help="figures to include (repeatable; default: " + ", ".join(REPORT_KINDS) + ")",
+        tpoint_help="also include a TPOINT graphics command's plot, e.g. 'G S A' (repeatable)",
     )
-    p.add_argument("--tpoint", action="append", default=None, metavar="COMMAND",
-                   help="also include a TPOINT graphics command's plot, e.g. 'G S A' (repeatable)")
     p.add_argument("--title", default=None, help="page title (default: the run's caption)")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="the HTML file to write")
     p.set_defaults(run=run_report)

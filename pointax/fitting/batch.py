@@ -118,6 +118,18 @@ def batched_observations(encoder, target, weight, convention, readings=None) -> 
     return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight, o.readings), obs, (encoder, target, weight, readings))
 
 
+def host_batch(observations: Observations) -> Observations:
+    """A batch ``(S, N, ...)`` of observations with every array, readings included, as a
+    float64 NumPy array (:func:`batched_observations`): the batched fits' host-side input."""
+    return batched_observations(
+        np.asarray(observations.encoder, np.float64),
+        np.asarray(observations.target, np.float64),
+        np.asarray(observations.weight, np.float64),
+        observations.convention,
+        {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
+    )
+
+
 def site_result(result: FitResult, site: int) -> FitResult:
     """One site's :class:`pointax.FitResult` out of a batched one (report, table, ...)."""
     # x[site, ...] keeps 0-d arrays (x[site] of a NumPy leaf would be a NumPy scalar).
@@ -440,13 +452,7 @@ def fit_batch(
     # Parameters as float64 arrays (host-side: no small computations to compile).
     model = model.replace_parameters(model.parameters, [_host(getattr(model.terms[p.term], p.field)) for p in model.parameters])
     fast = int(steps) > 0 and not options.robust
-    site_obs = batched_observations(
-        np.asarray(observations.encoder, np.float64),
-        np.asarray(observations.target, np.float64),
-        np.asarray(observations.weight, np.float64),
-        observations.convention,
-        {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
-    )
+    site_obs = host_batch(observations)
     if isinstance(chunk_size, str):
         if chunk_size != "auto":
             raise ValueError(f"chunk_size must be a number of sites, None or 'auto', got {chunk_size!r}")

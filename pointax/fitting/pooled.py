@@ -52,7 +52,7 @@ from ..core.observations import Observations
 from ..core.precision import float64
 from ..core.units import UNITS, angles_in_radians
 from . import normal_equations as ne
-from .batch import batched_observations, check_batch, site_statuses, start_values
+from .batch import check_batch, host_batch, site_statuses, start_values
 from .batch_fast_pass import DEFAULT_STEPS
 from .core import result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
@@ -657,12 +657,7 @@ def fit_pooled(
     # Parameters as float64 arrays: new values never recompile.
     host = model.with_values(model.values())
     host = host.replace_parameters(host.parameters, [np.asarray(getattr(host.terms[x.term], x.field), np.float64) for x in host.parameters])
-    obs = batched_observations(
-        np.asarray(observations.encoder, np.float64),
-        np.asarray(observations.target, np.float64),
-        np.asarray(observations.weight, np.float64),
-        observations.convention,
-    )
+    obs = host_batch(observations)
     pooled_mask = tuple(x.name not in unpooled for x in own)
     if covariance == "full":
         n_pooled = sum(pooled_mask)

@@ -42,7 +42,7 @@ from ..core.observations import Observations
 from ..core.precision import float64
 from ..core.units import UNITS
 from . import normal_equations as ne
-from .batch import batched_observations, check_batch, fit_batch, site_statuses, start_values
+from .batch import check_batch, fit_batch, host_batch, site_statuses, start_values
 from .core import result_from_covariance
 from .fast_jacobian import residual_function
 from .problem import site_data, site_residuals
@@ -319,13 +319,7 @@ def fit_shared(
         raise ValueError("no site can be fitted on its own; nothing to fit jointly")
     y0 = np.where(included[:, None], np.asarray(first.values), values)
     p0 = np.asarray([model.get(p.name) for p in shared_params], np.float64)
-    obs = batched_observations(
-        np.asarray(observations.encoder, np.float64),
-        np.asarray(observations.target, np.float64),
-        np.asarray(observations.weight, np.float64),
-        observations.convention,
-        {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
-    )
+    obs = host_batch(observations)
     sites, p, joint, converged, iterations = _joint_fit(
         model, own_params, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(included), max_steps, rtol, atol
     )

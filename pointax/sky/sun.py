@@ -391,49 +391,72 @@ def _sun_altaz(
     """Body of :func:`sun_altaz` (called directly by both public functions)."""
     t = as_time(times)
     location = check_location(location)
+    weather = checked_weather(
+        pressure_hpa, temperature_c, relative_humidity, wavelength_um, t.shape, "the times' shape"
+    )
+    with _offline_iers():
+        outside, span = _iers_out_of_range(t)
+        sun = get_body("sun", t, location=location, ephemeris="builtin")
+        az, el = _altaz_radians(sun, t, location)
+    effect = "The sun direction moves by 15 arcsec per second of UT1-UTC error (times cos declination)"
+    _warn_outside_iers(outside, span, t.size, effect, stacklevel=3)
+    return _observed_altaz(az, el, weather)
+
+
+# Shared with :mod:`pointax.sky.stars.apparent` (the stars' apparent places).
+
+
+def checked_weather(
+    pressure_hpa, temperature_c, relative_humidity, wavelength_um, shape, shape_name="the shape"
+):
+    """Checked weather arrays ``(pressure, temperature, humidity, wavelength)``, each
+    broadcastable to ``shape`` (``shape_name`` in the error), or None for no refraction
+    (no pressure); the temperature defaults to :data:`DEFAULT_TEMPERATURE_C` (as
+    :func:`pointax.sky.sun_altaz`)."""
     if pressure_hpa is None:
         if temperature_c is not None:
             raise ValueError(
                 "temperature_c was given without pressure_hpa: refraction needs the pressure "
                 "(pass pressure_hpa, or drop temperature_c for the unrefracted direction)"
             )
-        weather = None
-    else:
-        if temperature_c is None:
-            temperature_c = DEFAULT_TEMPERATURE_C
-        weather = _check_weather(
-            pressure_hpa, temperature_c, relative_humidity, wavelength_um
-        )
-        for name, value in zip(
-            ("pressure_hpa", "temperature_c", "relative_humidity", "wavelength_um"),
-            weather,
-            strict=True,
-        ):
-            try:
-                np.broadcast_to(value, t.shape)
-            except ValueError:
-                raise ValueError(
-                    f"{name} of shape {value.shape} does not broadcast to the times' shape {t.shape}"
-                ) from None
+        return None
+    if temperature_c is None:
+        temperature_c = DEFAULT_TEMPERATURE_C
+    weather = _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um)
+    names = ("pressure_hpa", "temperature_c", "relative_humidity", "wavelength_um")
+    for name, value in zip(names, weather, strict=True):
+        try:
+            np.broadcast_to(value, shape)
+        except ValueError:
+            raise ValueError(f"{name} of shape {value.shape} does not broadcast to {shape_name} {shape}") from None
+    return weather
 
-    with _offline_iers():
-        outside, span = _iers_out_of_range(t)
-        sun = get_body("sun", t, location=location, ephemeris="builtin")
-        altaz = sun.transform_to(AltAz(obstime=t, location=location))
-        az = np.asarray(altaz.az.to_value(u.rad), dtype=np.float64)
-        el = np.asarray(altaz.alt.to_value(u.rad), dtype=np.float64)
-    if outside:
-        warnings.warn(
-            f"{outside} of {t.size} times lie outside the IERS Earth-orientation table "
-            f"({span}); UT1-UTC is held at the table's end value and polar motion at its "
-            "50-year mean. The sun direction moves by 15 arcsec per second of UT1-UTC "
-            "error (times cos declination); update astropy-iers-data to fix.",
-            iers.IERSDegradedAccuracyWarning,
-            stacklevel=3,
-        )
 
+def _altaz_radians(coord, t: Time, location: EarthLocation) -> tuple[np.ndarray, np.ndarray]:
+    """Geometric ``(azimuth, elevation)`` of ``coord`` from ``location`` at ``t``: float64
+    radians from astropy's ``AltAz`` frame (no pressure: no refraction)."""
+    altaz = coord.transform_to(AltAz(obstime=t, location=location))
+    return np.asarray(altaz.az.to_value(u.rad), dtype=np.float64), np.asarray(altaz.alt.to_value(u.rad), dtype=np.float64)
+
+
+def _observed_altaz(az, el, weather) -> tuple[np.ndarray, np.ndarray]:
+    """``(azimuth in [0, 2 pi), elevation)`` float64 radians from geometric ones: the
+    elevation refracted with ``weather`` (:func:`checked_weather`; None: not refracted)."""
     az = np.mod(az, _TWO_PI)
     az = np.where(az >= _TWO_PI, 0.0, az)  # mod of a tiny negative rounds up to 2 pi
     if weather is not None:
         el = el + refraction(el, *weather)
     return np.asarray(az, dtype=np.float64), np.asarray(el, dtype=np.float64)
+
+
+def _warn_outside_iers(outside: int, span: str, size: int, effect: str, stacklevel: int) -> None:
+    """Warn, when ``outside`` of ``size`` times lie outside the IERS table (``span``),
+    what that does (``effect``, a sentence); ``stacklevel`` as the caller's own."""
+    if outside:
+        warnings.warn(
+            f"{outside} of {size} times lie outside the IERS Earth-orientation table "
+            f"({span}); UT1-UTC is held at the table's end value and polar motion at its "
+            f"50-year mean. {effect}; update astropy-iers-data to fix.",
+            iers.IERSDegradedAccuracyWarning,
+            stacklevel=stacklevel + 1,
+        )

@@ -32,6 +32,13 @@ and ``turntable("full")`` build terms by name.
 
 from ..core.lazy import lazy_namespace
 
+_TPOINT_ALTAZ_NAMES = (
+    "IA", "IE", "CA", "NPAE", "AN", "AW", "TF", "TX", "ACEC", "ACES", "ECEC", "ECES", "PAA1", "PEE1",
+)  # fmt: skip
+"""TPOINT's alt-az terms of :mod:`.tpoint_terms` (linear form) and :mod:`.rigorous` (the
+same names as rotations), listed once here: those modules' ``__all__`` and name tables,
+and ``_NAMES`` below, are built from it (this package reads it without importing them)."""
+
 _NAMES = (
     "Term",
     "SkyPoint",
@@ -62,20 +69,7 @@ _NAMES = (
     "HCEC",
     "DCES",
     "DCEC",
-    "IA",
-    "IE",
-    "CA",
-    "NPAE",
-    "AN",
-    "AW",
-    "TF",
-    "TX",
-    "ACEC",
-    "ACES",
-    "ECEC",
-    "ECES",
-    "PAA1",
-    "PEE1",
+    *_TPOINT_ALTAZ_NAMES,
     "NRX",
     "NRY",
     "CRX",

@@ -25,27 +25,12 @@ import jax.numpy as jnp
 
 from ..core.rotations import rot_x, rot_y, rot_z
 from ..core.term import Term, angle_pair, param
+from . import _TPOINT_ALTAZ_NAMES
 from .linear import tpoint_azimuth
 from .tpoint_terms import TF, TX
 from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
-__all__ = [
-    "IA",
-    "IE",
-    "CA",
-    "NPAE",
-    "AN",
-    "AW",
-    "TF",
-    "TX",
-    "ACEC",
-    "ACES",
-    "ECEC",
-    "ECES",
-    "PAA1",
-    "PEE1",
-    "RIGOROUS_TERMS",
-]
+__all__ = [*_TPOINT_ALTAZ_NAMES, "RIGOROUS_TERMS"]
 
 
 class _RigorousTerm(Term):
@@ -160,20 +145,7 @@ class AW(_RigorousTerm):
 
 
 RIGOROUS_TERMS: dict[str, type[Term]] = {
-    "IA": IA,
-    "IE": IE,
-    "CA": CA,
-    "NPAE": NPAE,
-    "AN": AN,
-    "AW": AW,
-    "TF": TF,
-    "TX": TX,
-    "ACEC": ACEC,
-    "ACES": ACES,
-    "ECEC": ECEC,
-    "ECES": ECES,
-    "PAA1": PAA1,
-    "PEE1": PEE1,
+    **{name: globals()[name] for name in _TPOINT_ALTAZ_NAMES},
     **SPECIAL_ALTAZ_TERMS,
 }
 """TPOINT name -> rigorous-form term class (:mod:`pointax.terms.tpoint_special`'s terms:

@@ -63,29 +63,11 @@ TPOINT's harmonic terms (``HACA2``, ``HSCA5CE8``, ...) are generated from their 
 
 from __future__ import annotations
 
+from . import _TPOINT_ALTAZ_NAMES
 from .linear import LinearTerm, NotYetInPointax, tpoint_azimuth
 from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
-__all__ = [
-    "NotYetInPointax",
-    "tpoint_azimuth",
-    "LinearTerm",
-    "IA",
-    "IE",
-    "CA",
-    "NPAE",
-    "AN",
-    "AW",
-    "TF",
-    "TX",
-    "ACEC",
-    "ACES",
-    "ECEC",
-    "ECES",
-    "PAA1",
-    "PEE1",
-    "LINEAR_TERMS",
-]
+__all__ = ["NotYetInPointax", "tpoint_azimuth", "LinearTerm", *_TPOINT_ALTAZ_NAMES, "LINEAR_TERMS"]
 
 
 class IA(LinearTerm):
@@ -223,9 +205,7 @@ class PEE1(LinearTerm):
         return 0.0, p.el
 
 
-LINEAR_TERMS: dict[str, type[LinearTerm]] = {
-    cls.__name__: cls for cls in (IA, IE, CA, NPAE, AN, AW, TF, TX, ACEC, ACES, ECEC, ECES, PAA1, PEE1)
-}
+LINEAR_TERMS: dict[str, type[LinearTerm]] = {name: globals()[name] for name in _TPOINT_ALTAZ_NAMES}
 """TPOINT name -> linear-form term class (with :mod:`pointax.terms.tpoint_special`'s)."""
 
 LINEAR_TERMS.update(SPECIAL_ALTAZ_TERMS)

@@ -11,20 +11,21 @@ import warnings
 import astropy.units as u
 import erfa
 import numpy as np
-from astropy.coordinates import CIRS, AltAz, EarthLocation
+from astropy.coordinates import CIRS, EarthLocation
 from astropy.time import Time
-from astropy.utils import iers
 from jaxtyping import Float
 
 from ...core.rotations import azel_to_enu_numpy
 from ..sun import (
-    DEFAULT_TEMPERATURE_C,
     DEFAULT_WAVELENGTH_UM,
     as_time,
     check_location,
-    _check_weather,
+    checked_weather,
+    _altaz_radians,
     _iers_out_of_range,
+    _observed_altaz,
     _offline_iers,
+    _warn_outside_iers,
     refraction,
 )
 from .catalogue import Catalogue
@@ -32,40 +33,6 @@ from .catalogue import Catalogue
 __all__ = ["apparent_altaz", "apparent_direction", "checked_weather", "fast_altaz"]
 
 _TWO_PI = 2.0 * math.pi
-
-
-def checked_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um, shape):
-    """Checked weather arrays, or None for no refraction (as :func:`pointax.sky.sun_altaz`)."""
-    if pressure_hpa is None:
-        if temperature_c is not None:
-            raise ValueError(
-                "temperature_c was given without pressure_hpa: refraction needs the pressure "
-                "(pass pressure_hpa, or drop temperature_c for the unrefracted direction)"
-            )
-        return None
-    if temperature_c is None:
-        temperature_c = DEFAULT_TEMPERATURE_C
-    weather = _check_weather(pressure_hpa, temperature_c, relative_humidity, wavelength_um)
-    names = ("pressure_hpa", "temperature_c", "relative_humidity", "wavelength_um")
-    for name, value in zip(names, weather, strict=True):
-        try:
-            np.broadcast_to(value, shape)
-        except ValueError:
-            raise ValueError(f"{name} of shape {value.shape} does not broadcast to the shape {shape}") from None
-    return weather
-
-
-def _warn_outside_iers(outside: int, span: str, size: int) -> None:
-    """Warn (as :mod:`pointax.sky` does) when times lie outside the IERS table."""
-    if outside:
-        warnings.warn(
-            f"{outside} of {size} times lie outside the IERS Earth-orientation table "
-            f"({span}); UT1-UTC is held at the table's end value and polar motion at its "
-            "50-year mean. Star positions move by up to 15 arcsec per second of UT1-UTC "
-            "error; update astropy-iers-data to fix.",
-            iers.IERSDegradedAccuracyWarning,
-            stacklevel=3,
-        )
 
 
 @contextlib.contextmanager
@@ -136,17 +103,12 @@ def apparent_altaz(
     index = np.broadcast_to(np.arange(len(stars)), shape)
     tb = t if t.shape == shape else np.broadcast_to(t, shape)
     with _astropy_quiet():
-        outside = _iers_out_of_range(tb)
+        outside, span = _iers_out_of_range(tb)
         coord = stars.skycoord(index).apply_space_motion(new_obstime=tb)
-        altaz = coord.transform_to(AltAz(obstime=tb, location=location))
-        az = np.asarray(altaz.az.to_value(u.rad), np.float64)
-        el = np.asarray(altaz.alt.to_value(u.rad), np.float64)
-    _warn_outside_iers(*outside, tb.size)
-    az = np.mod(az, _TWO_PI)
-    az = np.where(az >= _TWO_PI, 0.0, az)
-    if weather is not None:
-        el = el + refraction(el, *weather)
-    return az, el
+        az, el = _altaz_radians(coord, tb, location)
+    effect = "Star positions move by up to 15 arcsec per second of UT1-UTC error"
+    _warn_outside_iers(outside, span, tb.size, effect, stacklevel=2)
+    return _observed_altaz(az, el, weather)
 
 
 def apparent_direction(
