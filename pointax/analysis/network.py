@@ -43,7 +43,11 @@ reported ``failed`` with the reader's message (file, line, field) and the others
 Sites with the same format and model (terms, form, residuals, azimuth) go through one
 :func:`pointax.fit_batch` call (or :func:`pointax.fitting.distributed.fit_batch_distributed`
 when a Dask ``client`` is given), each with its own starting values (turntables: encoder
-zeros from their data). PAINT heliostats each have their own actuator geometry, so they
+zeros from their data). A group of fewer than :data:`SMALL_GROUP` sites skips the batch's
+fast pass (``steps=0``: every site through the full loop, the solo fit's algorithm),
+and the groups are fitted side by side in threads, one per CPU: for a handful of sites
+compiling is nearly all the time, and the full loop alone compiles in about half the
+time of the fast pass and the full loop together. PAINT heliostats each have their own actuator geometry, so they
 are calibrated one by one (:func:`pointax.calibrate_heliostat`, robust fit and
 leave-one-out), in this process.
 
@@ -56,14 +60,16 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import json
 import os
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -71,7 +77,7 @@ import numpy as np
 from .. import terms as term_library
 from ..core.precision import float64
 from ..fitting.batch import fit_batch, site_result, site_statuses, stack_observations
-from ..fitting.progress import progress_bar
+from ..fitting.progress import activity, progress_bar
 from .listing import observation_entries
 from ..fitting.core import SOLVERS
 from ..fitting.result import FitResult
@@ -93,7 +99,12 @@ __all__ = [
     "read_manifest",
     "NetworkResult",
     "fit_network",
+    "SMALL_GROUP",
 ]
+
+SMALL_GROUP = 16
+"""A group of fewer sites than this is fitted with the full loop alone (``fit_batch(...,
+steps=0)``): the fast pass pays off only when there are many sites to fit at once."""
 
 FORMATS = ("sun", "tpoint", "paint")
 """Data formats a manifest row may name."""
@@ -150,8 +161,10 @@ class SiteEntry:
 # --------------------------------------------------------------------------- manifest
 
 
+@functools.lru_cache(maxsize=256)
 def _check_terms(fmt: str, spec: str) -> tuple[str, ...]:
-    """Term names for ``spec`` (validated by building the terms); ValueError if bad."""
+    """Term names for ``spec`` (validated by building the terms); ValueError if bad.
+    Remembered: a network's rows mostly repeat a few specs, and building terms costs."""
     if fmt == "sun":
         chosen = TURNTABLE_MODELS.get(spec) or tuple(spec.replace(",", " ").split())
         return tuple(t.name for t in term_library.turntable(chosen))
@@ -445,30 +458,28 @@ def fit_network(
     to_fit = [e for e in entries if e.site in loaded]
     bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None
     report = bar if bar is not None else (progress if callable(progress) else None)
-    done = 0
+    groups: dict[tuple, list[SiteEntry]] = {}
+    for entry in to_fit:
+        if entry.format != "paint":
+            groups.setdefault(entry.model_key, []).append(entry)
+    counts = _SitesDone(report, len(to_fit), len(groups) + 1)
     try:
-        groups: dict[tuple, list[SiteEntry]] = {}
-        for entry in to_fit:
-            if entry.format != "paint":
-                groups.setdefault(entry.model_key, []).append(entry)
-        for members in groups.values():
-            offset = done
-            if hasattr(report, "shifted"):  # a progress bar: it also names compilations
-                step = report.shifted(offset, len(to_fit))
-            else:
-
-                def step(n_done, _total, offset=offset):
-                    if report is not None:
-                        report(offset + n_done, len(to_fit))
-
-            out.update(_fit_group(members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, step, client))
-            done += len(members)
-        for entry in to_fit:
-            if entry.format == "paint":
-                out[entry.site] = _calibrate(entry, loaded[entry.site], solver, max_steps)
-                done += 1
-                if report is not None:
-                    report(done, len(to_fit))
+        fits = [
+            (members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, counts.part(k), client)
+            for k, members in enumerate(groups.values())
+        ]
+        if len(fits) > 1 and (os.cpu_count() or 1) > 1:
+            # Side by side: a thread traces (holding the GIL) while another's program compiles.
+            with ThreadPoolExecutor(max_workers=min(len(fits), os.cpu_count() or 1)) as pool:
+                for part in list(pool.map(lambda args: _fit_group(*args), fits)):
+                    out.update(part)
+        else:
+            for args in fits:
+                out.update(_fit_group(*args))
+        heliostats = [entry for entry in to_fit if entry.format == "paint"]
+        for n, entry in enumerate(heliostats, start=1):
+            out[entry.site] = _calibrate(entry, loaded[entry.site], solver, max_steps)
+            counts.part(len(groups))(n)
     finally:
         if bar is not None:
             bar.close()
@@ -479,12 +490,36 @@ def fit_network(
     )
 
 
+class _SitesDone:
+    """The sites done of every part of a network's fit (its groups, fitted side by side,
+    then the heliostats), summed into one ``report(done, total)`` (a progress bar's
+    activities, a compilation, shown too)."""
+
+    def __init__(self, report, total: int, n_parts: int):
+        self.report, self.total, self.done = report, total, [0] * n_parts
+        self.lock = threading.Lock()
+
+    def part(self, k: int):
+        def step(n_done, _part_total=None):
+            with self.lock:
+                self.done[k] = int(n_done)
+                if self.report is not None:
+                    self.report(sum(self.done), self.total)
+
+        step.activity = lambda text: activity(self.report, text)
+        return step
+
+
+@float64
 def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> dict[str, dict[str, Any]]:
-    """One batched fit of sites sharing a model; per-site dicts."""
+    """One batched fit of sites sharing a model; per-site dicts (in a thread of its own:
+    x64 is switched on per thread)."""
     model = _batch_model(members[0])
     batch = stack_observations([run.observations for run in runs])
     values = _start_values(members, runs, model)
     options = {"values": values, "solver": solver, "max_steps": max_steps, "progress": step}
+    if len(members) < SMALL_GROUP:
+        options["steps"] = 0
     if client is None:
         result = fit_batch(model, batch, chunk_size=chunk_size, **options)
     else:
@@ -504,7 +539,7 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
         # the residuals of every row it used (no model evaluation per site here); a row
         # the file gave weight 0 has none there, so such a site's are evaluated.
         n = len(run.observations)
-        rows = eqx.tree_at(lambda r: (r.used, r.outliers), one, (np.asarray(one.used)[:n], np.asarray(one.outliers)[:n]))
+        rows = dataclasses.replace(one, used=np.asarray(one.used)[:n], outliers=np.asarray(one.outliers)[:n])
         every_row = bool(np.all(np.asarray(run.observations.weight) > 0))
         residuals = np.asarray(one.residuals)[:n] if every_row else None
         out[entry.site].update(masked=[], masked_rows=[], observations=observation_entries(run, rows, residuals=residuals))

@@ -187,7 +187,7 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
         # Stored programs (jax.export): a later process does not trace the full loop again
         # (tracing it costs more than loading its compiled code, benchmarks/network_scale.py).
         args = (model, values, obs, np.asarray(active))
-        return programs.call("batch_full_loop", _stored_full_loop, args, options, _full_loop_structure)
+        return programs.call("batch_full_loop", _stored_full_loop, args, options, _full_loop_structure, fast_compile=True)
     dynamic, static = eqx.partition((model, values, obs, np.asarray(active)), eqx.is_array)
     return compiled(_full_loop, ("static", "options"))(dynamic, _Static(static), options)
 

@@ -34,7 +34,7 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from ..core.precision import float64
-from .batch import check_batch, fit_batch, start_values
+from .batch import batched_observations, check_batch, fit_batch, host_batch, start_values
 from .options import FitOptions
 from .result import FitResult
 from ..core.model import Model
@@ -59,16 +59,11 @@ def _to_numpy(tree):
     return jax.tree.map(lambda x: np.asarray(x) if eqx.is_array(x) else x, tree)
 
 
-def _batched_observations(encoder, target, weight, convention) -> Observations:
-    """An Observations pytree with a leading site axis ``(S, N, ...)``."""
-    obs = Observations(encoder[0], target[0], weight[0], convention)
-    return eqx.tree_at(lambda o: (o.encoder, o.target, o.weight), obs, (encoder, target, weight))
-
-
 @float64
-def _fit_chunk(model: Model, encoder, target, weight, convention, values, options: dict[str, Any]) -> FitResult:
-    """One Dask task: :func:`pointax.fit_batch` on one chunk, arrays back as NumPy."""
-    obs = _batched_observations(encoder, target, weight, convention)
+def _fit_chunk(model: Model, encoder, target, weight, convention, readings, values, options: dict[str, Any]) -> FitResult:
+    """One Dask task: :func:`pointax.fit_batch` on one chunk (readings: name -> ``(S, N)``),
+    arrays back as NumPy."""
+    obs = batched_observations(encoder, target, weight, convention, readings)
     result = fit_batch(model, obs, values=values, **options)
     return _to_numpy(result)
 
@@ -128,9 +123,8 @@ def fit_batch_distributed(
     check_batch(observations)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
         raise ValueError(f"chunk_size must be a positive number of sites, got {chunk_size!r}")
-    encoder = np.asarray(observations.encoder, np.float64)
-    target = np.asarray(observations.target, np.float64)
-    weight = np.asarray(observations.weight, np.float64)
+    host = host_batch(observations.only_readings(model.readings))
+    encoder, target, weight = host.encoder, host.target, host.weight
     n_sites = encoder.shape[0]
     values = start_values(model, n_sites, values)
     size = max(1, min(int(chunk_size), n_sites))
@@ -159,6 +153,7 @@ def fit_batch_distributed(
                 chunk(target),
                 chunk(weight),
                 observations.convention,
+                {name: chunk(x) for name, x in host.readings.items()},
                 chunk(values),
                 options,
                 pure=False,

@@ -188,6 +188,13 @@ class FitResult(eqx.Module):
 
     # ------------------------------------------------------------ accessors
 
+    def __getattribute__(self, name: str):
+        # Methods as plain bound methods: equinox wraps every method it hands out in a
+        # BoundMethod module (a pytree, for jit), which costs more than the method itself
+        # when a network's report calls them for thousands of sites; a result's methods
+        # are reports on the host, never passed to jit.
+        return object.__getattribute__(self, name)
+
     def _index(self, name: str) -> int:
         try:
             return self.names.index(name)
