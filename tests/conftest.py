@@ -1,6 +1,6 @@
 """Shared test set-up: float64 JAX, paths to bundled and shared data, and what keeps
-the suite short: XLA's quicker-compiling CPU options, one compilation cache per test
-session, and the longest test files scheduled first."""
+the suite short: XLA's quicker-compiling CPU options at JAX's least optimisation, one
+compilation cache per test session, and the longest test files scheduled first."""
 
 from __future__ import annotations
 
@@ -10,14 +10,19 @@ import shutil
 import tempfile
 from pathlib import Path
 
-# Compiling is most of the suite's time. (1) XLA's older loop emitters at optimisation
-# level 2 compile pointax's programs in about two thirds of the time, as fast at run
-# time; pointax already compiles its larger programs so (pointax.fitting.xla_options),
-# here every program of the session is. POINTAX_TEST_XLA_DEFAULTS=1 keeps XLA's defaults.
+# Compiling is most of the suite's time. (1) XLA's older loop emitters compile pointax's
+# programs in about two thirds of the time (pointax already compiles its larger programs
+# so, pointax.fitting.xla_options; here every program of the session is), and at JAX's
+# least optimisation (JAX_DISABLE_MOST_OPTIMIZATIONS: level 0, which pointax's own
+# options then leave alone) in about three quarters of that again: the suite's fits run
+# on a few dozen observations, so compiling, not running, is their cost (three long test
+# files, alternating runs: 208 and 188 s at level 2, 169 and 130 s at level 0).
+# Subprocesses inherit both. POINTAX_TEST_XLA_DEFAULTS=1 keeps XLA's and JAX's defaults.
 if os.environ.get("POINTAX_TEST_XLA_DEFAULTS") != "1":
     _flags = os.environ.get("XLA_FLAGS", "")
-    _fast = ["--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=2"]
-    os.environ["XLA_FLAGS"] = " ".join([_flags, *(f for f in _fast if f.split("=")[0] not in _flags)]).strip()
+    if "--xla_cpu_use_fusion_emitters" not in _flags:
+        os.environ["XLA_FLAGS"] = f"{_flags} --xla_cpu_use_fusion_emitters=false".strip()
+    os.environ.setdefault("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
 # (2) One compilation cache for the session, shared by both xdist workers (they inherit
 # this process's environment) and the subprocesses tests start: the same program
 # compiled in another process is loaded. A temporary folder, so that a run starts cold

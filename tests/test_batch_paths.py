@@ -4,6 +4,7 @@ one by one and equal their solo fits; the compile options per model."""
 
 from __future__ import annotations
 
+import jax
 import numpy as np
 import pytest
 
@@ -114,3 +115,21 @@ def test_the_tpoint_start_is_only_for_linear_sky_terms(monkeypatch):
     result = px.fit_batch(start, px.stack_observations(sites))
     assert np.all(np.asarray(result.converged)) and calls == []
     assert np.all(np.asarray(result.iterations) == fast_pass.DEFAULT_STEPS)
+
+
+def test_quick_compile_options_leave_the_level_to_jax_when_it_asks_for_least_optimisation():
+    """pointax's options raise XLA's optimisation level to 2, except where the user set
+    JAX's ``jax_disable_most_optimizations`` (the test suite does): then JAX's 0 holds."""
+    from pointax.fitting import xla_options
+
+    before = jax.config.read("jax_disable_most_optimizations")
+    try:
+        for flag, level in ((False, True), (True, False)):
+            jax.config.update("jax_disable_most_optimizations", flag)
+            xla_options.fast_compile_options.cache_clear()
+            options = xla_options.fast_compile_options()
+            assert options["xla_cpu_use_fusion_emitters"] is False
+            assert ("xla_backend_optimization_level" in options) == level
+    finally:
+        jax.config.update("jax_disable_most_optimizations", before)
+        xla_options.fast_compile_options.cache_clear()

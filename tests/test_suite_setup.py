@@ -11,8 +11,14 @@ import pytest
 
 @pytest.mark.skipif(os.environ.get("POINTAX_TEST_XLA_DEFAULTS") == "1", reason="XLA's defaults asked for")
 def test_tests_compile_with_the_quicker_xla_options():
-    flags = os.environ.get("XLA_FLAGS", "")
-    assert "--xla_cpu_use_fusion_emitters=false" in flags and "--xla_backend_optimization_level=2" in flags
+    import jax
+
+    from pointax.fitting import xla_options
+
+    assert "--xla_cpu_use_fusion_emitters=false" in os.environ.get("XLA_FLAGS", "")
+    assert os.environ.get("JAX_DISABLE_MOST_OPTIMIZATIONS") == "1"
+    assert jax.config.read("jax_disable_most_optimizations")
+    assert "xla_backend_optimization_level" not in xla_options.fast_compile_options()
 
 
 def test_one_compilation_cache_per_session_outside_the_home_folder():
