@@ -39,6 +39,10 @@ _TPOINT_ALTAZ_NAMES = (
 same names as rotations), listed once here: those modules' ``__all__`` and name tables,
 and ``_NAMES`` below, are built from it (this package reads it without importing them)."""
 
+_TPOINT_EQUATORIAL_NAMES = ("IH", "ID", "CH", "NP", "MA", "ME", "FO", "DAF", "HCES", "HCEC", "DCES", "DCEC")
+"""TPOINT's equatorial terms of :mod:`.equatorial` but TF (whose name is the alt-az TF's:
+``pointax.terms.equatorial.TF``), listed once here as the alt-az names above."""
+
 _NAMES = (
     "Term",
     "SkyPoint",
@@ -57,18 +61,7 @@ _NAMES = (
     "EQUATORIAL_LINEAR_TERMS",
     "EQUATORIAL_RIGOROUS_TERMS",
     "EQUATORIAL_FORMS",
-    "IH",
-    "ID",
-    "CH",
-    "NP",
-    "MA",
-    "ME",
-    "FO",
-    "DAF",
-    "HCES",
-    "HCEC",
-    "DCES",
-    "DCEC",
+    *_TPOINT_EQUATORIAL_NAMES,
     *_TPOINT_ALTAZ_NAMES,
     "NRX",
     "NRY",

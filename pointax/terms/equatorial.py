@@ -120,24 +120,14 @@ import jax.numpy as jnp
 
 from ..core.rotations import rot_x, rot_y, rot_z
 from ..core.term import Term, angle_pair, param
+from . import _TPOINT_EQUATORIAL_NAMES
 from .equatorial_special import SPECIAL_EQUATORIAL_TERMS, SPECIAL_NEEDS_LATITUDE
 from .linear import LatitudeTerm as _LatitudeTerm
 from .linear import LinearTerm
 
 __all__ = [
-    "IH",
-    "ID",
-    "CH",
-    "NP",
-    "MA",
-    "ME",
+    *_TPOINT_EQUATORIAL_NAMES,
     "TF",
-    "FO",
-    "DAF",
-    "HCES",
-    "HCEC",
-    "DCES",
-    "DCEC",
     "EQUATORIAL_LINEAR_TERMS",
     "EQUATORIAL_RIGOROUS_TERMS",
     "EQUATORIAL_FORMS",
@@ -257,7 +247,7 @@ class DCEC(LinearTerm):
 
 
 EQUATORIAL_LINEAR_TERMS: dict[str, type[LinearTerm]] = {
-    cls.__name__: cls for cls in (IH, ID, CH, NP, MA, ME, TF, FO, DAF, HCES, HCEC, DCES, DCEC)
+    name: globals()[name] for name in (*_TPOINT_EQUATORIAL_NAMES[:6], "TF", *_TPOINT_EQUATORIAL_NAMES[6:])
 }
 """TPOINT equatorial name -> linear-form term class."""
 
