@@ -378,3 +378,36 @@ def test_a_fit_at_its_step_limit_on_the_optimum_has_converged():
     far = px.fit(model, run, max_steps=1)
     assert not bool(far.converged)
     assert "maximum number of steps" in far.message
+
+
+def test_programs_are_traced_one_at_a_time(monkeypatch, tmp_path):
+    """Two threads that need new stored programs trace them one after the other (their
+    compilations may overlap): side by side, each trace took as long as both
+    (fit-network's model groups, benchmarks/network_scale_notes.md)."""
+    import threading
+    import time
+
+    from pointax.fitting import programs
+
+    inside, most = [0], [0]
+
+    def export(*args):
+        inside[0] += 1
+        most[0] = max(most[0], inside[0])
+        time.sleep(0.05)
+        inside[0] -= 1
+        return (lambda *leaves: leaves), [jax.tree.structure((0,))]
+
+    monkeypatch.setattr(programs, "_export", export)
+    monkeypatch.setattr(programs, "_DIRECTORY", tmp_path)
+    monkeypatch.setattr(programs, "_MEMORY", {})
+
+    def call(k):
+        programs.call(f"p{k}", None, (np.zeros(k + 1),), k, lambda *a: jax.tree.structure((0,)))
+
+    threads = [threading.Thread(target=call, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert most[0] == 1

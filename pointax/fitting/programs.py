@@ -51,6 +51,7 @@ STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "unreadable": 0}
 _DIRECTORY: Path | None = None
 _MEMORY: dict = {}
 _LOCK = threading.Lock()
+_TRACING = threading.Lock()
 _FORMAT = 3  # 1 named classes by their bare name; 2 kept compiled executables beside the programs
 
 
@@ -102,9 +103,13 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable, fast
     if entry is None:
         expected = structure(*args, static)
         key = _key(name + (" fast-compile" if fast_compile else ""), in_tree, avals, static)
-        entry = (key is not None and _load(key, expected, fast_compile)) or _export(
-            key, fn, in_tree, avals, static, expected, fast_compile
-        )
+        entry = key is not None and _load(key, expected, fast_compile)
+        if not entry:
+            # One trace at a time: tracing holds Python's lock anyway, and threads that
+            # trace side by side each take as long as both (fit-network fits its model
+            # groups in threads: one traces while another's program compiles).
+            with _TRACING:
+                entry = _export(key, fn, in_tree, avals, static, expected, fast_compile)
         with _LOCK:
             _MEMORY[memory_key] = entry
     else:
