@@ -119,6 +119,38 @@ def test_map_equals_dense_joint_least_squares(small_network, small_fit):
     np.testing.assert_allclose(np.asarray(fit.sites.sigmas), sigmas, rtol=1e-8)
 
 
+def test_progress_names_the_compilation_and_counts_the_sites(small_network, small_fit, monkeypatch):
+    """fit_pooled(progress=...) says "compiling" around the first call of a model and
+    size (a fresh process's first call: the record of calls is emptied here, so the
+    compiled program is reused and only the notice is checked), then all sites done;
+    the same call again says nothing of compiling. The answer is the fit's."""
+    import contextlib
+
+    from pointax.fitting import batch_fast_pass
+    from pointax.fitting.pooled import COMPILING_POOLED
+
+    class Recorder:
+        def __init__(self):
+            self.calls, self.texts = [], []
+
+        def __call__(self, done, total):
+            self.calls.append((done, total))
+
+        @contextlib.contextmanager
+        def activity(self, text):
+            self.texts.append(text)
+            yield
+
+    monkeypatch.setattr(batch_fast_pass, "_SEEN", set())
+    batch = px.stack_observations([s[0] for s in small_network])
+    for first in (True, False):
+        seen = Recorder()
+        fit = px.fit_pooled(_model(), batch, covariance="diagonal", tol=1e-12, progress=seen)
+        assert seen.texts == ([COMPILING_POOLED] if first else [])
+        assert seen.calls == [(4, 4)]
+        np.testing.assert_array_equal(np.asarray(fit.sites.values), np.asarray(small_fit.sites.values))
+
+
 def test_population_is_a_fixed_point_of_the_m_step(small_network, small_fit):
     """mu = mean MAP value, Sigma = their scatter + mean posterior covariance (its
     diagonal: the fit's form), s2 = the expected squared residual, all from the dense
@@ -338,6 +370,15 @@ def test_fit_network_pooled_on_the_example_manifest(monkeypatch):
         assert all(p["sigma"] > 0 for p in d["params"])
         if name != "ts-05":  # fixed by its own data: moved by a few of its own sigmas at most
             assert all(p["shrinkage"] < 3 for p in d["params"]), (name, d["params"])
+    # The library call counts the sites of both designs on one progress (5 pooled, the MMT
+    # run alone; ts-06 unread), rising to all of them.
+    from pointax.analysis.pooled_report import pooled_network
+
+    seen = []
+    again = pooled_network(network / "manifest.csv", progress=lambda done, total: seen.append((done, total)))
+    assert seen[-1] == (6, 6) and all(t == 6 for _, t in seen)
+    assert [d for d, _ in seen] == sorted(d for d, _ in seen)
+    assert [d["site"] for d in again.sites] == list(sites)
     assert sites["ts-05"]["params"][0]["independent_value"] is None  # not fixed by its data alone
 
 

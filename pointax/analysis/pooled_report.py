@@ -17,12 +17,14 @@ import dataclasses
 import json
 import os
 import time
+from collections.abc import Callable
 from typing import Any
 
 from ..core.precision import float64
 from ..fitting.batch import stack_observations
 from ..fitting.pooled import fit_pooled
-from .network import _batch_model, _calibrate, _fit_group, _header, _read_sites, _start_values, read_manifest
+from ..fitting.progress import progress_bar
+from .network import _SitesDone, _batch_model, _calibrate, _fit_group, _header, _read_sites, _start_values, read_manifest
 
 __all__ = ["MIN_SITES", "ENCODER_ZEROS", "PooledNetworkResult", "pooled_network"]
 
@@ -98,13 +100,17 @@ class PooledNetworkResult:
 
 @float64
 def pooled_network(manifest: str | os.PathLike, *, k: float = 3.0, solver: str = "lm", max_steps: int = 256,
-                   chunk_size: int | None = 1000) -> PooledNetworkResult:  # fmt: skip
+                   chunk_size: int | None = 1000,
+                   progress: bool | Callable[[int, int], None] = False) -> PooledNetworkResult:  # fmt: skip
     """Fit every site of a network manifest, each design pooled (see the module).
 
     Args:
         manifest: the manifest file (:mod:`pointax.analysis.network`).
         k: sites whose own estimate lies beyond ``k`` sigma of their population are flagged.
         solver, max_steps, chunk_size: for the sites fitted without pooling.
+        progress: as :func:`pointax.analysis.network.fit_network`'s: ``True`` for a bar on
+            standard error when it is a terminal (naming compilations), or a callable
+            ``progress(sites_done, sites_total)``.
 
     Raises:
         ManifestError: the manifest is wrong (nothing is fitted then).
@@ -117,29 +123,37 @@ def pooled_network(manifest: str | os.PathLike, *, k: float = 3.0, solver: str =
     for entry in entries:
         if entry.site in loaded and entry.format != "paint":
             groups.setdefault(entry.model_key, []).append(entry)
+    to_fit = [e for e in entries if e.site in loaded]
+    bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None
+    counts = _SitesDone(bar if bar is not None else (progress if callable(progress) else None), len(to_fit), len(groups) + 1)
     populations = []
-    for members in groups.values():
-        runs = [loaded[e.site] for e in members]
-        if len(members) < MIN_SITES:
-            note = f"not pooled: {len(members)} site(s) of this design, {MIN_SITES} needed"
-            for site, d in _fit_group(members, runs, solver, max_steps, chunk_size, lambda *_: None, None).items():
-                out[site] = {**d, "pooled": False, "reason": "; ".join(r for r in (d.get("reason"), note) if r)}
-            continue
-        model = _batch_model(members[0])
-        free = [p.name for p in model.free_parameters]
-        unpooled = tuple(n for n in ENCODER_ZEROS.get(members[0].format, ()) if n in free)
-        n_pooled = len(free) - len(unpooled)
-        covariance = "full" if len(members) > n_pooled else "diagonal"
-        fit = fit_pooled(model, stack_observations([r.observations for r in runs]), values=_start_values(members, runs, model),
-                         unpooled=unpooled, covariance=covariance, k=k)  # fmt: skip
-        name = f"{members[0].format} {' '.join(members[0].terms)}"
-        populations.append(f"[{name}] " + fit.report().replace("group all:", "population:"))
-        statuses = fit.statuses()
-        for s, entry in enumerate(members):
-            out[entry.site] = {**_header(entry), **statuses[s], "pooled": True, "covariance": covariance, **fit.site_dict(s)}
-    for entry in entries:
-        if entry.site in loaded and entry.format == "paint":
+    try:
+        for g, members in enumerate(groups.values()):
+            runs = [loaded[e.site] for e in members]
+            if len(members) < MIN_SITES:
+                note = f"not pooled: {len(members)} site(s) of this design, {MIN_SITES} needed"
+                for site, d in _fit_group(members, runs, solver, max_steps, chunk_size, counts.part(g), None).items():
+                    out[site] = {**d, "pooled": False, "reason": "; ".join(r for r in (d.get("reason"), note) if r)}
+                continue
+            model = _batch_model(members[0])
+            free = [p.name for p in model.free_parameters]
+            unpooled = tuple(n for n in ENCODER_ZEROS.get(members[0].format, ()) if n in free)
+            n_pooled = len(free) - len(unpooled)
+            covariance = "full" if len(members) > n_pooled else "diagonal"
+            fit = fit_pooled(model, stack_observations([r.observations for r in runs]), values=_start_values(members, runs, model),
+                             unpooled=unpooled, covariance=covariance, k=k, progress=counts.part(g))  # fmt: skip
+            name = f"{members[0].format} {' '.join(members[0].terms)}"
+            populations.append(f"[{name}] " + fit.report().replace("group all:", "population:"))
+            statuses = fit.statuses()
+            for s, entry in enumerate(members):
+                out[entry.site] = {**_header(entry), **statuses[s], "pooled": True, "covariance": covariance, **fit.site_dict(s)}
+        heliostats = [entry for entry in to_fit if entry.format == "paint"]
+        for n, entry in enumerate(heliostats, start=1):
             out[entry.site] = {**_calibrate(entry, loaded[entry.site], solver, max_steps), "pooled": False}
+            counts.part(len(groups))(n)
+    finally:
+        if bar is not None:
+            bar.close()
     return PooledNetworkResult(
         manifest=os.fspath(manifest),
         sites=tuple(out[e.site] for e in entries),

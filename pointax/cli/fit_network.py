@@ -111,15 +111,20 @@ def _run_pooled(args: argparse.Namespace, stdout: TextIO, stderr: TextIO, fail) 
     from ..analysis.network import ManifestError
     from ..analysis.pooled_report import pooled_network
     from ..fitting.compilation_cache import enable_compilation_cache
+    from ..fitting.progress import progress_bar
 
     enable_compilation_cache()
+    # A tqdm bar on standard error when it is a terminal (silent in pipes and logs).
+    progress = progress_bar(0, "fitting", "site", enabled=not args.quiet, stream=stderr)
     try:
         result = pooled_network(args.manifest, k=args.flag_sigma, solver=args.solver, max_steps=args.max_steps,
-                                chunk_size=args.chunk_size)  # fmt: skip
+                                chunk_size=args.chunk_size, progress=progress if progress.active else False)  # fmt: skip
     except (ManifestError, ValueError) as err:
         return fail(err)
     except OSError as err:
         return fail(os_error_text(err, args.manifest))
+    finally:
+        progress.close()
     _print_result(args, result, stdout, stderr)
     return 0 if result.all_converged else 1
 

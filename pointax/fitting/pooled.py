@@ -38,7 +38,8 @@ parameter), flagged beyond ``k`` sigma.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import equinox as eqx
@@ -53,10 +54,11 @@ from ..core.precision import float64
 from ..core.units import UNITS, angles_in_radians
 from . import normal_equations as ne
 from .batch import check_batch, host_batch, site_statuses, start_values
-from .batch_fast_pass import DEFAULT_STEPS
+from .batch_fast_pass import DEFAULT_STEPS, first_call
 from .core import result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
 from .problem import is_affine, site_data, site_residuals
+from .progress import activity, progress_bar
 from .residuals import check_convention
 from .result import FitResult
 
@@ -561,6 +563,10 @@ def _report(model, own, shared, q: _Quadratic, post: _Posterior, pop: _Populatio
             mean, cov, jnp.sqrt(pop.s2), q.p, shared_sigmas, post.cpp, q.active, iterations, em_ok, converged)  # fmt: skip
 
 
+COMPILING_POOLED = "compiling the pooled fit (first call for this model and size)"
+"""What a progress bar says while :func:`fit_pooled` compiles."""
+
+
 def _group_codes(groups, n_sites: int) -> tuple[np.ndarray, tuple[str, ...]]:
     if groups is None:
         return np.zeros(n_sites, np.int32), ("all",)
@@ -588,6 +594,7 @@ def fit_pooled(
     tol: float = 1e-6,
     rtol: float = 1e-10,
     atol: float = 1e-13,
+    progress: bool | Callable[[int, int], None] | None = None,
 ) -> PooledFit:
     """Fit every site of a network with partial pooling (see the module).
 
@@ -615,6 +622,11 @@ def fit_pooled(
             (:func:`_change`: changes of the population means and variances on the
             scale of the broad starting population, of the noise variance relative).
         rtol, atol: the last Gauss-Newton step's convergence test (nonlinear models).
+        progress: ``True`` for a progress bar on standard error when it is a terminal
+            (it says "compiling the pooled fit" while the first call for a model and
+            size compiles), or a callable ``progress(sites_done, sites_total)`` called
+            when the fit is done (a :class:`pointax.fitting.progress.Progress` also shows
+            the compilation).
 
     Returns:
         A :class:`PooledFit`.
@@ -669,13 +681,24 @@ def fit_pooled(
                     f"group {name!r} has {count} sites with data for {n_pooled} pooled parameters: a full population "
                     "covariance needs more sites than parameters (its estimate is singular); use covariance='diagonal'"
                 )
-    out = _pooled_fit(
-        host, own, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(codes),
-        jnp.full(len(group_names), sigma), jnp.asarray(float(tol)), jnp.asarray(float(rtol)), jnp.asarray(float(atol)),
-        jnp.asarray(float(k)), n_groups=len(group_names), pooled_mask=pooled_mask, diagonal=covariance == "diagonal",
-        steps=int(steps), affine=bool(is_affine(model)) and int(steps) == 1,
-        max_iterations=int(max_iterations),
-    )  # fmt: skip
+    statics = dict(n_groups=len(group_names), pooled_mask=pooled_mask, diagonal=covariance == "diagonal", steps=int(steps),
+                   affine=bool(is_affine(model)) and int(steps) == 1, max_iterations=int(max_iterations))  # fmt: skip
+    bar = progress_bar(n_sites, "pooling", "site", enabled=True) if progress is True else None
+    report = bar if bar is not None else (progress or None)
+    first = first_call("pooled_fit", (host, y0, obs, codes, shared_params), tuple(statics.items()))
+    try:
+        with activity(report, COMPILING_POOLED) if first else contextlib.nullcontext():
+            out = _pooled_fit(
+                host, own, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(codes),
+                jnp.full(len(group_names), sigma), jnp.asarray(float(tol)), jnp.asarray(float(rtol)),
+                jnp.asarray(float(atol)), jnp.asarray(float(k)), **statics,
+            )  # fmt: skip
+            out = jax.block_until_ready(out)  # the notice lasts as long as the wait
+        if report is not None:
+            report(n_sites, n_sites)
+    finally:
+        if bar is not None:
+            bar.close()
     (sites, independent, independent_sigma, shrinkage, fraction, distance, dof, p_value, disagrees, mean, cov,
      noise_sd, p, shared_sigmas, shared_cov, active, iterations, em_ok, converged) = out  # fmt: skip
     return PooledFit(
