@@ -47,9 +47,9 @@ zeros from their data). A group of fewer than :data:`SMALL_GROUP` sites skips th
 fast pass (``steps=0``: every site through the full loop, the solo fit's algorithm),
 and the groups are fitted side by side in threads, one per CPU: for a handful of sites
 compiling is nearly all the time, and the full loop alone compiles in about half the
-time of the fast pass and the full loop together. PAINT heliostats each have their own actuator geometry, so they
-are calibrated one by one (:func:`pointax.calibrate_heliostat`, robust fit and
-leave-one-out), in this process.
+time of the fast pass and the full loop together. PAINT heliostats each have their own
+actuator geometry, so they are calibrated one by one (:func:`pointax.calibrate_heliostat`,
+robust fit and leave-one-out), in this process.
 
 Per site, ``status`` is ``"converged"``, ``"degenerate"`` (converged, but the data
 cannot tell some parameters apart: ``reason`` names them) or ``"failed"`` (``reason``

@@ -51,7 +51,7 @@ STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "unreadable": 0}
 _DIRECTORY: Path | None = None
 _MEMORY: dict = {}
 _LOCK = threading.Lock()
-_TRACING = threading.Lock()
+_TRACING = threading.RLock()  # re-entrant: a traced function may itself call a stored program
 _FORMAT = 3  # 1 named classes by their bare name; 2 kept compiled executables beside the programs
 
 
