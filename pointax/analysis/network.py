@@ -59,6 +59,7 @@ says why: unreadable data, non-finite residuals, no convergence).
 from __future__ import annotations
 
 import csv
+import contextlib
 import dataclasses
 import functools
 import json
@@ -456,14 +457,8 @@ def fit_network(
     loaded, out = _read_sites(entries)
 
     to_fit = [e for e in entries if e.site in loaded]
-    bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None
-    report = bar if bar is not None else (progress if callable(progress) else None)
-    groups: dict[tuple, list[SiteEntry]] = {}
-    for entry in to_fit:
-        if entry.format != "paint":
-            groups.setdefault(entry.model_key, []).append(entry)
-    counts = _SitesDone(report, len(to_fit), len(groups) + 1)
-    try:
+    groups = _model_groups(to_fit)
+    with _sites_progress(progress, len(to_fit), len(groups) + 1) as counts:
         fits = [
             (members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, counts.part(k), client)
             for k, members in enumerate(groups.values())
@@ -476,18 +471,45 @@ def fit_network(
         else:
             for args in fits:
                 out.update(_fit_group(*args))
-        heliostats = [entry for entry in to_fit if entry.format == "paint"]
-        for n, entry in enumerate(heliostats, start=1):
-            out[entry.site] = _calibrate(entry, loaded[entry.site], solver, max_steps)
-            counts.part(len(groups))(n)
-    finally:
-        if bar is not None:
-            bar.close()
+        out.update(_calibrate_heliostats(to_fit, loaded, solver, max_steps, counts.part(len(groups))))
     return NetworkResult(
         manifest=os.fspath(manifest),
         sites=tuple(out[e.site] for e in entries),
         seconds=time.perf_counter() - start_time,
     )
+
+
+def _model_groups(to_fit: list[SiteEntry]) -> dict[tuple, list[SiteEntry]]:
+    """The sites to fit in batches (all but PAINT heliostats), grouped by model, in
+    manifest order."""
+    groups: dict[tuple, list[SiteEntry]] = {}
+    for entry in to_fit:
+        if entry.format != "paint":
+            groups.setdefault(entry.model_key, []).append(entry)
+    return groups
+
+
+@contextlib.contextmanager
+def _sites_progress(progress, total: int, n_parts: int):
+    """A network fit's :class:`_SitesDone` over ``n_parts`` parts: a bar of ``total``
+    sites when ``progress`` is True (closed at the end), the callable ``progress``, or
+    nothing."""
+    bar = progress_bar(total, "fitting", "site", enabled=True) if progress is True else None
+    try:
+        yield _SitesDone(bar if bar is not None else (progress if callable(progress) else None), total, n_parts)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _calibrate_heliostats(to_fit, loaded, solver: str, max_steps: int, step) -> dict[str, dict[str, Any]]:
+    """Every PAINT heliostat of ``to_fit`` calibrated (:func:`_calibrate`), one by one,
+    ``step(n)`` after the n-th."""
+    out = {}
+    for n, entry in enumerate((e for e in to_fit if e.format == "paint"), start=1):
+        out[entry.site] = _calibrate(entry, loaded[entry.site], solver, max_steps)
+        step(n)
+    return out
 
 
 class _SitesDone:

@@ -23,8 +23,10 @@ from typing import Any
 from ..core.precision import float64
 from ..fitting.batch import stack_observations
 from ..fitting.pooled import fit_pooled
-from ..fitting.progress import progress_bar
-from .network import _SitesDone, _batch_model, _calibrate, _fit_group, _header, _read_sites, _start_values, read_manifest
+from .network import (
+    _batch_model, _calibrate_heliostats, _fit_group, _header, _model_groups, _read_sites, _sites_progress, _start_values,
+    read_manifest,
+)  # fmt: skip
 
 __all__ = ["MIN_SITES", "ENCODER_ZEROS", "PooledNetworkResult", "pooled_network"]
 
@@ -119,15 +121,10 @@ def pooled_network(manifest: str | os.PathLike, *, k: float = 3.0, solver: str =
     entries = read_manifest(manifest)
     loaded, out = _read_sites(entries)
     out = {site: {**record, "pooled": False} for site, record in out.items()}
-    groups: dict[tuple, list] = {}
-    for entry in entries:
-        if entry.site in loaded and entry.format != "paint":
-            groups.setdefault(entry.model_key, []).append(entry)
     to_fit = [e for e in entries if e.site in loaded]
-    bar = progress_bar(len(to_fit), "fitting", "site", enabled=True) if progress is True else None
-    counts = _SitesDone(bar if bar is not None else (progress if callable(progress) else None), len(to_fit), len(groups) + 1)
+    groups = _model_groups(to_fit)
     populations = []
-    try:
+    with _sites_progress(progress, len(to_fit), len(groups) + 1) as counts:
         for g, members in enumerate(groups.values()):
             runs = [loaded[e.site] for e in members]
             if len(members) < MIN_SITES:
@@ -147,13 +144,8 @@ def pooled_network(manifest: str | os.PathLike, *, k: float = 3.0, solver: str =
             statuses = fit.statuses()
             for s, entry in enumerate(members):
                 out[entry.site] = {**_header(entry), **statuses[s], "pooled": True, "covariance": covariance, **fit.site_dict(s)}
-        heliostats = [entry for entry in to_fit if entry.format == "paint"]
-        for n, entry in enumerate(heliostats, start=1):
-            out[entry.site] = {**_calibrate(entry, loaded[entry.site], solver, max_steps), "pooled": False}
-            counts.part(len(groups))(n)
-    finally:
-        if bar is not None:
-            bar.close()
+        for site, record in _calibrate_heliostats(to_fit, loaded, solver, max_steps, counts.part(len(groups))).items():
+            out[site] = {**record, "pooled": False}
     return PooledNetworkResult(
         manifest=os.fspath(manifest),
         sites=tuple(out[e.site] for e in entries),
