@@ -46,7 +46,7 @@ from .problem import is_affine
 from .progress import activity, progress_bar
 from .ranges import range_warning, wrap_periodic
 from .residuals import check_convention
-from .result import FitResult, too_few_residuals
+from .result import PER_ROW_FIELDS, FitResult, too_few_residuals
 from .solo import fit_model, options_from
 
 __all__ = ["stack_observations", "batched_observations", "fit_batch", "site_result", "site_statuses", "observation_bucket"]
@@ -56,9 +56,6 @@ COMPILING = "compiling the batched fit (first call for this model and size)"
 
 COMPILING_FULL = "compiling the full fit for the sites the fast pass left (first call for this model and size)"
 """... and while it compiles the full loop."""
-
-PER_ROW_FIELDS = ("residuals", "used", "loo_residuals", "outliers")
-"""The fields of a :class:`pointax.FitResult` with one entry per observation row."""
 
 
 def observation_bucket(n: int) -> int:

@@ -113,6 +113,10 @@ def too_little_data(n_used: int, params) -> str:
     )
 
 
+PER_ROW_FIELDS = ("residuals", "used", "loo_residuals", "outliers")
+"""The fields of a :class:`pointax.FitResult` with one entry per observation row."""
+
+
 class FitResult(eqx.Module):
     """The outcome of :func:`fit` (a pytree: batched fits stack along a leading axis).
 
