@@ -9,6 +9,11 @@ Parts (each optional, all by default):
   (warm). Also the import alone (``python -c "import pointax.analysis.network"``).
 * ``network``: the same for a simulated network of ``--sites`` (10,000) turntables
   written to a temporary folder (one sun file per site, 40 observations, a manifest).
+* ``phases``: where the in-process time of the simulated network goes, in a fresh
+  process with an empty cache folder: import, manifest, reading the sites' files,
+  stacking, start values, ``fit_batch``, statuses, per-site dicts, observation entries
+  (built for ``--json`` only) and the table; wall and CPU seconds of each
+  (``python benchmarks/network_scale.py --phases-of MANIFEST`` runs one such process).
 * ``dask``: ``pointax.fitting.distributed.fit_chunks_distributed`` on a
   ``LocalCluster`` (``--workers`` processes, one thread each) for each size in
   ``--dask-sites`` (100,000 and 1,000,000): each chunk of ``--chunk`` sites is simulated
@@ -115,6 +120,73 @@ def write_network(folder: Path, sites: int, n_obs: int = 40) -> Path:
     return manifest
 
 
+PHASES = ("import", "manifest", "read", "stack", "starts", "fit_batch", "statuses", "dicts", "observations", "table")
+
+
+def phases_of(manifest: str) -> dict:
+    """Wall and CPU seconds of each phase of ``fit_network``'s work on a manifest of
+    turntables of one model (this process; call it in a fresh one with a cleared cache)."""
+    marks = [(time.perf_counter(), time.process_time())]
+    import jax
+
+    import pointax as px
+    from pointax.analysis import network
+    from pointax.analysis.batch_listing import batch_observation_entries
+    from pointax.core.precision import float64
+    from pointax.fitting.batch_records import site_dicts, site_statuses
+    from pointax.fitting.compilation_cache import enable_compilation_cache
+
+    enable_compilation_cache()
+
+    def mark():
+        marks.append((time.perf_counter(), time.process_time()))
+
+    mark()
+    entries = network.read_manifest(manifest)
+    mark()
+    loaded, _ = network._read_sites(entries)
+    mark()
+    members = [e for e in entries if e.site in loaded]
+    runs = [loaded[e.site] for e in members]
+
+    @float64
+    def work():
+        model = network._batch_model(members[0])
+        batch = px.stack_observations([r.observations for r in runs])
+        mark()
+        values = network._start_values(members, runs, model)
+        mark()
+        result = jax.tree.map(np.asarray, px.fit_batch(model, batch, values=values, chunk_size=1000))
+        mark()
+        statuses = site_statuses(result)
+        mark()
+        dicts = site_dicts(result)
+        mark()
+        batch_observation_entries(runs, result)
+        mark()
+        sites = [{**network._header(e), **s, **d} for e, s, d in zip(members, statuses, dicts)]
+        result = network.NetworkResult(manifest, tuple(sites))
+        result.table(), result.summary()
+        mark()
+
+    work()
+    return {
+        name: {"wall_s": b[0] - a[0], "cpu_s": b[1] - a[1]} for name, a, b in zip(PHASES, marks[:-1], marks[1:])
+    }
+
+
+def cold_phases(manifest: Path) -> dict:
+    """:func:`phases_of` in a fresh process with an empty cache folder."""
+    cache = Path(tempfile.mkdtemp(prefix="pointax-cache-"))
+    env = dict(os.environ, POINTAX_JAX_CACHE=str(cache))
+    try:
+        done = subprocess.run([sys.executable, __file__, "--phases-of", str(manifest)], env=env, capture_output=True,
+                              text=True, cwd=ROOT, check=True)  # fmt: skip
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 def _worker_peak_rss_mb() -> float:
     import resource as r
 
@@ -159,13 +231,18 @@ def dask_run(n_sites: int, chunk: int, workers: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--parts", nargs="+", default=["manifest", "network", "dask"], choices=["manifest", "network", "dask"])
+    parser.add_argument("--parts", nargs="+", default=["manifest", "network", "phases", "dask"],
+                        choices=["manifest", "network", "phases", "dask"])  # fmt: skip
+    parser.add_argument("--phases-of", metavar="MANIFEST", help="print the phases of one manifest as JSON (a child process)")
     parser.add_argument("--sites", type=int, default=10_000, help="sites of the simulated manifest (default 10,000)")
     parser.add_argument("--dask-sites", type=int, nargs="+", default=[100_000, 1_000_000])
     parser.add_argument("--chunk", type=int, default=10_000, help="sites per Dask task (default 10,000)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--note", default="", help="how the machine was loaded (e.g. 'nice -n 19 beside other work')")
     args = parser.parse_args()
+    if args.phases_of:
+        print(json.dumps(phases_of(args.phases_of)))
+        return
     out = {
         "command": " ".join([Path(sys.executable).name] + sys.argv),
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()},
@@ -176,12 +253,15 @@ def main() -> None:
     previous = json.loads(OUT.read_text()) if OUT.is_file() else {}
     if "manifest" in args.parts:
         out["fit_network"].append(cold_and_warm(ROOT / "examples" / "data" / "network" / "manifest.csv", "bundled manifest (7 sites)"))
-    if "network" in args.parts:
+    if "network" in args.parts or "phases" in args.parts:
         with tempfile.TemporaryDirectory(prefix="pointax-network-") as folder:
             start = time.perf_counter()
             manifest = write_network(Path(folder), args.sites)
             out["network_written_s"] = time.perf_counter() - start
-            out["fit_network"].append(cold_and_warm(manifest, f"simulated network ({args.sites} turntables, 40 observations)"))
+            if "network" in args.parts:
+                out["fit_network"].append(cold_and_warm(manifest, f"simulated network ({args.sites} turntables, 40 observations)"))
+            if "phases" in args.parts:
+                out["phases"] = {"sites": args.sites, "cold": cold_phases(manifest)}
     if "dask" in args.parts:
         for n in args.dask_sites:
             out["dask"].append(dask_run(n, args.chunk, args.workers))
@@ -197,6 +277,12 @@ def main() -> None:
     for row in out["dask"]:
         peaks = "/".join(f"{x:.0f}" for x in row["worker_peak_rss_mb"])
         print(f"{row['workers']} workers x 1 thread {row['sites']:9d} {row['chunk']:7d} {row['sites_per_s']:9.0f} {peaks:>20s} {row['client_peak_rss_mb']:10.0f}")
+    if "phases" not in out and "phases" in previous:
+        out["phases"] = previous["phases"]
+    if "phases" in out:
+        print(f"\n{'phases, ' + str(out['phases']['sites']) + ' sites, cold':32s} {'wall s':>8s} {'CPU s':>8s}")
+        for name, row in out["phases"]["cold"].items():
+            print(f"{name:32s} {row['wall_s']:8.2f} {row['cpu_s']:8.2f}")
     if args.note:
         print(f"\n({args.note})")
     OUT.parent.mkdir(parents=True, exist_ok=True)

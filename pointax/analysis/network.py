@@ -77,9 +77,10 @@ import numpy as np
 
 from .. import terms as term_library
 from ..core.precision import float64
-from ..fitting.batch import fit_batch, site_result, site_statuses, stack_observations
+from ..fitting.batch import fit_batch, stack_observations
+from ..fitting.batch_records import site_dicts, site_statuses
 from ..fitting.progress import activity, progress_bar
-from .listing import observation_entries
+from .batch_listing import batch_observation_entries
 from ..fitting.core import SOLVERS
 from ..fitting.result import FitResult
 from .heliostat import calibrate_heliostat
@@ -90,7 +91,7 @@ from ..core.model import RESIDUAL_FORMS
 from ..terms.model_factories import AltAz, Turntable
 from ..core.mounts import AZIMUTH_CONVENTIONS
 from ..terms.heliostat_terms import HELIOSTAT_DEFAULT
-from ..terms.sun_vector import TURNTABLE_MODELS, estimate_zeros
+from ..terms.sun_vector import TURNTABLE_MODELS
 
 __all__ = [
     "FORMATS",
@@ -406,12 +407,29 @@ def _start_values(members: list[SiteEntry], runs: list, model) -> np.ndarray:
         return values
     free = [p.name for p in model.free_parameters]
     columns = [(k, free.index(name)) for k, name in enumerate(("alpha0", "beta0")) if name in free]
-    for row, run in zip(values, runs):
-        use = run.weight > 0
-        zeros = estimate_zeros(np.asarray(run.observations.encoder)[use], np.asarray(run.observations.target)[use])
+    if columns:
+        zeros = _encoder_zeros(runs)
         for k, column in columns:
-            row[column] = zeros[k]
+            values[:, column] = zeros[:, k]
     return values
+
+
+def _encoder_zeros(runs: list) -> np.ndarray:
+    """``(S, 2)`` :func:`~pointax.terms.sun_vector.estimate_zeros` of every run's rows of
+    positive weight, to the bit: the same NumPy operations on the sites with as many
+    such rows stacked (one call per count, not per site: 0.75 -> 0.3 s at 10,000)."""
+    out = np.empty((len(runs), 2))
+    used = [np.asarray(run.weight) > 0 for run in runs]
+    counts = np.array([int(u.sum()) for u in used])
+    for n in np.unique(counts).tolist():
+        sites = np.flatnonzero(counts == n).tolist()
+        encoder = np.stack([np.asarray(runs[k].observations.encoder, np.float64)[used[k]] for k in sites])
+        target = np.stack([np.asarray(runs[k].observations.target, np.float64)[used[k]] for k in sites])
+        azimuth = np.arctan2(target[..., 0], target[..., 1])
+        elevation = np.arctan2(target[..., 2], np.hypot(target[..., 0], target[..., 1]))
+        for j, x in enumerate((encoder[..., 0] + azimuth, encoder[..., 1] - elevation)):
+            out[sites, j] = np.arctan2(np.mean(np.sin(x), axis=1), np.mean(np.cos(x), axis=1)) % (2 * np.pi)
+    return out
 
 
 @float64
@@ -423,6 +441,7 @@ def fit_network(
     chunk_size: int | None = 1000,
     progress: bool | Callable[[int, int], None] = False,
     client=None,
+    observations: bool = True,
 ) -> NetworkResult:
     """Fit every site of a network manifest (format: this module's docstring).
 
@@ -439,6 +458,9 @@ def fit_network(
         client: a ``distributed.Client`` (or scheduler address) to run the batches on
             a Dask cluster (:func:`pointax.fitting.distributed.fit_batch_distributed`); PAINT
             heliostats are still calibrated here.
+        observations: give each batched site its ``observations`` entries (and empty
+            ``masked``, ``masked_rows``), as ``pointax fit --json``; ``False`` leaves the
+            three keys out (the table and the summary do not need them).
 
     Returns:
         :class:`NetworkResult`: per site, in manifest order, the keys of
@@ -460,7 +482,7 @@ def fit_network(
     groups = _model_groups(to_fit)
     with _sites_progress(progress, len(to_fit), len(groups) + 1) as counts:
         fits = [
-            (members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, counts.part(k), client)
+            (members, [loaded[e.site] for e in members], solver, max_steps, chunk_size, counts.part(k), client, observations)
             for k, members in enumerate(groups.values())
         ]
         if len(fits) > 1 and (os.cpu_count() or 1) > 1:
@@ -533,9 +555,9 @@ class _SitesDone:
 
 
 @float64
-def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> dict[str, dict[str, Any]]:
+def _fit_group(members, runs, solver, max_steps, chunk_size, step, client, observations=True) -> dict[str, dict[str, Any]]:
     """One batched fit of sites sharing a model; per-site dicts (in a thread of its own:
-    x64 is switched on per thread)."""
+    x64 is switched on per thread), with the observation entries when ``observations``."""
     model = _batch_model(members[0])
     batch = stack_observations([run.observations for run in runs])
     values = _start_values(members, runs, model)
@@ -549,22 +571,20 @@ def _fit_group(members, runs, solver, max_steps, chunk_size, step, client) -> di
 
         result = fit_batch_distributed(model, batch, client=client, chunk_size=chunk_size or len(members), **options)
     result = jax.tree.map(np.asarray, result)  # one transfer to NumPy: per-site slices are cheap
+    # Column-wise over the sites (a FitResult per site cost 0.3 ms each: seconds at 10,000).
     statuses = site_statuses(result)
+    dicts = site_dicts(result)
+    # As pointax fit --json: no masks, one entry per observation (only when asked for:
+    # the table and the summary do not show them).
+    entries = batch_observation_entries(runs, result) if observations else None
     out = {}
     for k, (entry, run) in enumerate(zip(members, runs)):
-        one = site_result(result, k)
         head = _header(entry)
         if entry.format == "tpoint":
             head.update(caption=run.caption, form=entry.form, residuals=entry.residuals, start_model=None)
-        out[entry.site] = {**head, **statuses[k], **one.to_dict()}
-        # As pointax fit --json: no masks, one entry per observation. The batched fit has
-        # the residuals of every row it used (no model evaluation per site here); a row
-        # the file gave weight 0 has none there, so such a site's are evaluated.
-        n = len(run.observations)
-        rows = dataclasses.replace(one, used=np.asarray(one.used)[:n], outliers=np.asarray(one.outliers)[:n])
-        every_row = bool(np.all(np.asarray(run.observations.weight) > 0))
-        residuals = np.asarray(one.residuals)[:n] if every_row else None
-        out[entry.site].update(masked=[], masked_rows=[], observations=observation_entries(run, rows, residuals=residuals))
+        out[entry.site] = {**head, **statuses[k], **dicts[k]}
+        if entries is not None:
+            out[entry.site].update(masked=[], masked_rows=[], observations=entries[k])
     return out
 
 

@@ -80,6 +80,7 @@ def run_fit_network(args: argparse.Namespace, stdout: TextIO | None = None, stde
             chunk_size=args.chunk_size,
             progress=progress if progress.active else False,
             client=client,
+            observations=args.json,  # the table and the summary show none of them
         )
     except (ManifestError, ValueError) as err:
         return fail(err)

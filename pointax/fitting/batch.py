@@ -44,7 +44,7 @@ from .core import fit_result_structure
 from .options import FitOptions
 from .problem import is_affine
 from .progress import activity, progress_bar
-from .ranges import range_warning, wrap_periodic
+from .ranges import wrap_periodic
 from .residuals import check_convention
 from .result import PER_ROW_FIELDS, FitResult, too_few_residuals
 from .solo import fit_model, options_from
@@ -141,17 +141,9 @@ def site_statuses(result: FitResult) -> list[dict[str, str]]:
     the solver stopped). A converged site whose values lie outside their declared ranges
     (:mod:`pointax.fitting.ranges`: an equivalent solution in another branch) keeps its
     status, with the reason saying so."""
-    out = []
-    for k in range(int(np.shape(result.converged)[0])):
-        one = site_result(result, k)
-        degenerate = [n for n, d in zip(one.names, np.asarray(one.degenerate)) if d]
-        if not bool(one.converged):
-            out.append({"status": "failed", "reason": one.message})
-        elif degenerate:
-            out.append({"status": "degenerate", "reason": "cannot be told apart: " + ", ".join(degenerate)})
-        else:
-            out.append({"status": "converged", "reason": range_warning(np.asarray(one.values), one.model.free_parameters)})
-    return out
+    from .batch_records import site_statuses as column_wise
+
+    return column_wise(result)  # one NumPy pass per field, not a FitResult per site
 
 
 def check_batch(observations) -> None:
