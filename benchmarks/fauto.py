@@ -15,6 +15,7 @@ term count + 2 terms, and a leave-one-out RMS no worse than that of TPOINT's ter
 Writes benchmarks/results/fauto.json.
 
     .venv/bin/python benchmarks/fauto.py [--pairs FOLDER ...] [--azimuth S-E] [--order 8]
+        [--product-order 8] [--start-rule popn|significance|never] [--only STEM] [--out PATH]
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ def _shown(path: Path) -> str:
         return str(path)
 
 
-def one_pair(dat: Path, mod: Path, azimuth: str, order: int) -> dict:
+def one_pair(dat: Path, mod: Path, azimuth: str, order: int | None, options: dict) -> dict:
     """FAUTO on the run and the comparison with TPOINT's model (figures in arcsec)."""
     arcsec = px.units.ARCSEC
     run = px.io.read_tpoint(dat, azimuth=azimuth)
@@ -120,7 +121,7 @@ def one_pair(dat: Path, mod: Path, azimuth: str, order: int) -> dict:
     obs = px.Observations(obs.encoder, obs.target, weight, obs.convention, obs.readings)
     run = dataclasses.replace(run, observations=obs)
     t0 = time.perf_counter()
-    built = fauto(run) if order is None else fauto(run, max_order=order)
+    built = fauto(run, **options) if order is None else fauto(run, max_order=order, **options)
     seconds = time.perf_counter() - t0
     tp_fit = px.fit(tp_model, obs)
     ours = run.model(built.model.terms)
@@ -141,6 +142,9 @@ def one_pair(dat: Path, mod: Path, azimuth: str, order: int) -> dict:
         "pointax_loo_rms": loo_rms(ours, obs) / arcsec,
         "tpoint_terms_loo_rms": loo_rms(tp_model, obs) / arcsec,
         "pointax_added": list(built.added),
+        "pointax_start_terms_dropped": [s.term for s in built.steps if s.action == "drop" and s.term not in built.added
+                                        and s.term in built.steps[0].term.split()],
+        "pointax_steps": [f"{s.stage} {s.action} {s.term}" for s in built.steps[1:]],
         "tpoint_added": [t.name for t in tp.terms if t.parallel],
         "fauto_seconds": seconds,
     }
@@ -159,6 +163,11 @@ def main() -> dict:
     parser.add_argument("--pairs", action="append", default=[], metavar="FOLDER", help="folder of RUN.dat + RUN.mod pairs")
     parser.add_argument("--azimuth", default="N-E", help="how the --pairs runs count azimuth (default N-E; MMT: S-E)")
     parser.add_argument("--order", type=int, default=None, help="FAUTO's highest harmonic order (default: fauto's)")
+    parser.add_argument("--product-order", type=int, default=None,
+                        help="FAUTO's highest product-harmonic order (default: fauto's)")
+    parser.add_argument("--start-rule", default=None, help="FAUTO's start_rule (default: fauto's)")
+    parser.add_argument("--only", action="append", default=[], metavar="STEM",
+                        help="only the pairs whose run file name contains STEM (repeatable)")
     parser.add_argument("--no-bundled", action="store_true", help="leave out the repository's own runs")
     parser.add_argument("--out", default=str(HERE / "results" / "fauto.json"))
     args = parser.parse_args()
@@ -166,7 +175,11 @@ def main() -> dict:
     pairs = [] if args.no_bundled else list(BUNDLED)
     for folder in args.pairs:
         pairs += find_pairs(Path(folder), args.azimuth)
-    rows = [one_pair(dat, mod, az, args.order) for dat, mod, az in pairs]
+    if args.only:
+        pairs = [p for p in pairs if any(stem in p[0].name for stem in args.only)]
+    options = {k: v for k, v in (("max_product_order", args.product_order), ("start_rule", args.start_rule))
+               if v is not None}
+    rows = [one_pair(dat, mod, az, args.order, options) for dat, mod, az in pairs]
     head = (
         f"{'run':<28s} {'FAUTO?':>6s} {'N':>4s} {'N TP':>4s} {'M px':>5s} {'M TP':>5s} {'Sky px':>7s} {'Sky TP':>7s} "
         f"{'LOO px':>7s} {'LOO TP':>7s}  targets"
@@ -187,8 +200,11 @@ def main() -> dict:
     print("Sky RMS, LOO: arcsec; LOO TP: TPOINT's terms fitted by pointax, each star left out in turn"
           + "".join(f"; {Path(r['run']).name} without {', '.join(r['tpoint_terms_not_in_pointax'])} (not in pointax)"
                     for r in rows if r["tpoint_terms_not_in_pointax"]) + ".")
-    order = args.order if args.order is not None else inspect.signature(fauto).parameters["max_order"].default
-    out = {"order": order, "runs": rows}
+    defaults = inspect.signature(fauto).parameters
+    order = args.order if args.order is not None else defaults["max_order"].default
+    out = {"order": order,
+           "product_order": options.get("max_product_order", defaults["max_product_order"].default),
+           "start_rule": options.get("start_rule", defaults["start_rule"].default), "runs": rows}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     # Paths of --pairs runs outside the repository are kept as given (their source is the user's).
     Path(args.out).write_text(json.dumps(out, indent=2) + "\n")

@@ -6,7 +6,12 @@
   terms; the same steps come out twice;
 * equatorial and X-Y runs: the planted terms found, values within 4 sigma;
 * ``pointax tpoint`` FAUTO prints the step table; the '&' flags of a written model;
-* SHOW names the run's mount; ``pointax compare`` names an unknown family.
+* SHOW names the run's mount; ``pointax compare`` names an unknown family;
+* a start term with no signal is dropped when the refit without it has the lower Popn
+  SD (NumPy's least squares of both models), and no other;
+* a planted two-coordinate product harmonic is found by the product stage (values and
+  Sky RMS: NumPy's least squares), and the vectorised screen gives the per-candidate
+  compiled screen's figures.
 """
 
 from __future__ import annotations
@@ -103,9 +108,18 @@ def test_fauto_recovers_the_planted_harmonics_and_adds_no_mimic(altaz):
     assert any(c == "HESE2" for c, _, _ in f.mimics)
 
 
-def test_fauto_is_deterministic(altaz):
+def test_fauto_is_deterministic(altaz, monkeypatch):
     obs, f = altaz
+    import sys
+
+    # Every candidate here has one parameter: all screened together in NumPy, none by
+    # the per-candidate compiled step (the vectorised screen's speed, benchmarks/fauto_notes.md).
+    calls = []
+    module = sys.modules["pointax.analysis.fauto"]
+    per_candidate = module._Search.screen
+    monkeypatch.setattr(module._Search, "screen", lambda *a: calls.append(1) or per_candidate(*a))
     again = fauto(obs)
+    assert not calls
     assert again.steps == f.steps and again.names == f.names
     np.testing.assert_array_equal(again.values, f.values)
 
@@ -223,24 +237,108 @@ def test_compare_cli_unknown_family_exit_2(capsys):
     assert "unknown family 'nosuch'" in err and "NOSUCH" not in err
 
 
-def test_fauto_drops_an_insignificant_start_term_only_when_asked():
-    """keep_start=False: a start term with no signal (TX, 0 in the truth) is dropped at
-    the start, as TPOINT's FAUTO holds such basic terms at 0; its |value/sigma| in
-    NumPy's least squares of the start terms is below 2 and the lowest of them all."""
+def _no_tx_run(n=60, seed=4):
+    """A simulated alt-az run of the basic terms but TX (0 in the truth)."""
     values = {k: v for k, v in TRUTH.items() if k in BASIC and k != "TX"}
     truth = px.AltAz(tpoint(list(values), values={k: v * ARCSEC for k, v in values.items()}))
     rng = np.random.default_rng(11)
     enc = np.stack(
-        [rng.uniform(0, 2 * np.pi, 60), np.arcsin(rng.uniform(np.sin(np.radians(15)), np.sin(np.radians(85)), 60))], 1
+        [rng.uniform(0, 2 * np.pi, n), np.arcsin(rng.uniform(np.sin(np.radians(15)), np.sin(np.radians(85)), n))], 1
     )
-    obs = px.simulate(truth, enc, noise=0.5 * ARCSEC, seed=4)
-    template = px.AltAz(tpoint(BASIC))
-    coef, resid, jac = _numpy_fit(template, BASIC, obs)
-    sky = np.sqrt(np.sum(resid**2) / (len(resid) // 2))
+    return px.simulate(truth, enc, noise=0.5 * ARCSEC, seed=seed)
+
+
+def _numpy_z_popn(names, obs):
+    """``|value / sigma|`` of each term and Popn SD of NumPy's least squares of ``names``."""
+    coef, resid, jac = _numpy_fit(px.AltAz(tpoint(names)), names, obs)
+    n = len(resid) // 2
+    sky = np.sqrt(np.sum(resid**2) / n)
     z = np.abs(coef) / (sky * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac))))
-    assert BASIC[int(np.argmin(z))] == "TX" and z.min() < 2 and np.sort(z)[1] >= 2
-    dropped = fauto(obs, max_order=0, further=(), keep_start=False)
-    assert [(s.stage, s.action, s.term) for s in dropped.steps[1:]] == [("start", "drop", "TX")]
-    assert "TX" not in dropped.names and len(dropped.names) == 7
-    kept = fauto(obs, max_order=0, further=())
+    return z, sky * np.sqrt(n / (n - len(names)))
+
+
+def test_fauto_drops_a_start_term_without_signal_by_popn_sd():
+    """The default start rule: a start term with no signal (TX, 0 in the truth) is
+    dropped at the start, as TPOINT's FAUTO holds such basic terms at 0, because the
+    refit without it has the lower Popn SD; then no other is (each would raise it).
+    Reference: NumPy's least squares of the eight and of the seven terms."""
+    obs = _no_tx_run()
+    z8, popn8 = _numpy_z_popn(BASIC, obs)
+    assert BASIC[int(np.argmin(z8))] == "TX"
+    seven = [n for n in BASIC if n != "TX"]
+    z7, popn7 = _numpy_z_popn(seven, obs)
+    assert popn7 < popn8
+    weakest = seven[int(np.argmin(z7))]
+    _, popn6 = _numpy_z_popn([n for n in seven if n != weakest], obs)
+    assert popn6 > popn7
+    f = fauto(obs, max_order=0, further=())
+    assert [(s.stage, s.action, s.term) for s in f.steps[1:]] == [("start", "drop", "TX")]
+    assert list(f.names) == seven
+    assert abs(f.popn_sd - popn7) < 1e-6 * ARCSEC and abs(f.steps[1].significance - z8.min()) < 1e-4
+    kept = fauto(obs, max_order=0, further=(), start_rule="never")
     assert list(kept.names) == BASIC and len(kept.steps) == 1
+    assert fauto(obs, max_order=0, further=(), keep_start=True).names == kept.names
+    # The 2 sigma bar of the added terms ('significance') drops TX too, here.
+    dropped = fauto(obs, max_order=0, further=(), start_rule="significance")
+    assert [(s.stage, s.action, s.term) for s in dropped.steps[1:]] == [("start", "drop", "TX")]
+
+
+def test_fauto_finds_a_planted_product_harmonic():
+    """A 3" HSCA2CE2 (cross-elevation ~ cos 2A' cos 2E) over the basic terms: FAUTO's
+    product stage adds it and nothing else; the single harmonics do not stand in for
+    it; values within 4 sigma of the truth; Sky RMS and values are NumPy's least
+    squares of the chosen terms. The one-parameter screen (NumPy, all candidates at
+    once) gives the per-candidate compiled screen's figures at every step."""
+    import sys
+
+    module = sys.modules["pointax.analysis.fauto"]
+    values = {**{k: TRUTH[k] for k in BASIC}, "HSCA2CE2": 3.0}
+    truth = px.AltAz(tpoint(list(values), values={k: v * ARCSEC for k, v in values.items()}))
+    rng = np.random.default_rng(8)
+    enc = np.stack(
+        [rng.uniform(0, 2 * np.pi, 70), np.arcsin(rng.uniform(np.sin(np.radians(15)), np.sin(np.radians(85)), 70))], 1
+    )
+    obs = px.simulate(truth, enc, noise=0.5 * ARCSEC, seed=6)
+    compared = []
+    vectorised = module._Search.screen_all
+
+    def checked(self, state, ts, jac):
+        out = vectorised(self, state, ts, jac)
+        for t in ts:
+            one = self.screen(state, t, jac)
+            assert (one is None) == (out[t] is None), self.names[t]
+            if one is not None:
+                np.testing.assert_allclose(out[t], one, rtol=1e-6)
+                compared.append(t)
+        return out
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(module._Search, "screen_all", checked)
+    try:
+        f = fauto(obs, max_order=1, max_product_order=2, further=())
+    finally:
+        mp.undo()
+    assert len(compared) > 50
+    # A single harmonic may stand in for it first; it is dropped once the product is in.
+    assert f.added == ("HSCA2CE2",) and ("product", "add", "HSCA2CE2") in [(s.stage, s.action, s.term) for s in f.steps]
+    assert "HSCA2CE2" in module.product_candidates("altaz", 2)
+    for name, value in values.items():
+        k = f.names.index(name)
+        assert abs(f.values[k] / ARCSEC - value) < 4 * f.sigmas[k] / ARCSEC, name
+    coef, resid, _ = _numpy_fit(f.model, list(f.names), obs)
+    assert abs(f.sky_rms - np.sqrt(np.sum(resid**2) / (len(resid) // 2))) < 1e-6 * ARCSEC
+    np.testing.assert_allclose(f.values, coef, atol=1e-6 * ARCSEC)
+
+
+def test_product_candidates():
+    from pointax.analysis.fauto import product_candidates
+
+    two = product_candidates("altaz", 2)
+    assert len(two) == 12 * 4 and two[:4] == ("HASASE", "HASACE", "HACASE", "HACACE")
+    assert {"HSCA2CE2", "HESA2CE", "HACASE2"} <= set(two)
+    assert len(product_candidates("altaz", 8)) == 768 and "HSCA5CE8" in product_candidates("altaz", 8)
+    assert "HXSH2CD" in product_candidates("equatorial", 2)
+    assert product_candidates("xy", 8) == ()
+    # Every name builds (TPOINT's generic grammar).
+    assert len(tpoint(list(two))) == len(two)
+    assert len(tpoint(list(product_candidates("equatorial", 2)), mount="equatorial", latitude=0.5)) == 48

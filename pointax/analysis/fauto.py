@@ -14,20 +14,26 @@ purpose, not its numerical rule, so the thresholds here are pointax's choice):
   ``(J^T J)^-1``) are eligible; the one with the lowest Popn SD is added (ties: the
   first in candidate order), and the model refitted;
 * **drop**: after each addition, while a term FAUTO added has ``|value / sigma| <
-  significance``, the least significant one is dropped (and not tried again); with
-  ``keep_start=False`` the start terms too, from the start fit on (TPOINT's FAUTO
-  models hold such basic terms at 0: IE, CA, NPAE in the Rubin AuxTel models of
-  ``benchmarks/fauto_notes.md``);
+  significance``, the least significant one is dropped (and not tried again); and,
+  from the start fit on, while the refit without the least significant start term has
+  the lower Popn SD, that term is dropped (``start_rule='popn'``; for a linear problem
+  that is ``|value / sigma| < sqrt(N / (N - M))``): TPOINT's FAUTO models hold such
+  basic terms at 0 (IE, CA, NPAE in the Rubin AuxTel models of
+  ``benchmarks/fauto_notes.md``), and the 2 sigma bar of the added terms dropped
+  correlated planted terms on a simulated run;
 * **stages**: the further physical terms first; then the harmonics of every order up
   to ``max_order`` (default 8: TPOINT's FAUTO models hold harmonics to order 8, none
   higher) together (lower orders first in the candidate order, which breaks
   ties); a stage ends when no candidate is eligible. (Opening the orders one at a time
   lets a low-order harmonic take the place of a higher-order one the data hold: on a
   simulated run with HECE3, HECE2 came in at order 2 and HECE3 was then left out.)
+  With ``max_product_order``, a last stage adds the two-coordinate products
+  (``HSCA5CE8``; :func:`product_candidates`), the single harmonics still open.
 
 The fits are :class:`pointax.analysis.building_fits.Builder`'s (converged Gauss-Newton
 fits on masks of terms: trying a term compiles nothing); candidates are screened by one
-linearised step from the current fit.
+linearised step from the current fit, the one-parameter candidates all together in
+NumPy (:meth:`_Search.screen_all`).
 """
 
 from __future__ import annotations
@@ -52,7 +58,7 @@ from .folds import evaluation_scheme
 from ..fitting.result import finite_or_none
 from .per_axis import resolve_per_axis, second_axis_cosines
 
-__all__ = ["FAUTO_PHYSICAL", "FautoStep", "Fauto", "fauto", "harmonic_candidates"]
+__all__ = ["FAUTO_PHYSICAL", "FautoStep", "Fauto", "fauto", "harmonic_candidates", "product_candidates"]
 
 FAUTO_PHYSICAL: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "altaz": (("IA", "IE", "CA", "NPAE", "AN", "AW", "TF", "TX"), ("ACEC", "ACES", "ECEC", "ECES")),
@@ -97,6 +103,28 @@ def harmonic_candidates(kind: str, order: int) -> tuple[str, ...]:
     if kind == "xy":
         return tuple(n for n in xy_terms.SphericalHarmonic.TABLE if max(_xy_degree(n), 1) == order)
     raise ValueError(f"unknown mount kind {kind!r}")
+
+
+def _multiplier(k: int) -> str:
+    return "" if k == 1 else str(k)
+
+
+def product_candidates(kind: str, max_order: int) -> tuple[str, ...]:
+    """Two-coordinate product harmonics with both orders in ``1..max_order``, in TPOINT's
+    generic grammar (multiplier 1 left out, as TPOINT writes them): alt-az
+    ``H{A,E,S}{S,C}A{k}{S,C}E{j}`` (``HESACE``, ``HSCA5CE8``), equatorial
+    ``H{H,D,X}{S,C}H{k}{S,C}D{j}``; ordered by ``max(k, j)``, then ``k + j``. X-Y mounts
+    have none (their harmonics, :mod:`pointax.terms.xy`, are already functions of both
+    axes). ``12 max_order^2`` names."""
+    if kind == "xy":
+        return ()
+    if kind not in ("altaz", "equatorial"):
+        raise ValueError(f"unknown mount kind {kind!r}")
+    results, (u, v) = ("AES", "AE") if kind == "altaz" else ("HDX", "HD")
+    pairs = sorted(((k, j) for k in range(1, max_order + 1) for j in range(1, max_order + 1)),
+                   key=lambda kj: (max(kj), sum(kj), kj))
+    return tuple(f"H{w}{f}{u}{_multiplier(k)}{g}{v}{_multiplier(j)}"
+                 for k, j in pairs for w in results for f in "SC" for g in "SC")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -279,6 +307,81 @@ class _Search:
         rows = np.repeat(self.b.scheme.fit_rows, 2)
         return self.b.linearise(state.y)[1][rows]
 
+    def screen_all(self, state: FitState, ts: Sequence[int], jac: np.ndarray) -> dict[int, tuple[float, float] | None]:
+        """:meth:`screen` of every candidate of ``ts`` (in order: the first mimic seen is
+        the one reported), those of one parameter together in NumPy: the same
+        linearised step, as a partitioned least-squares problem (the candidate's column
+        made orthogonal to the model's), and the same correlations, from the inverse of
+        the model's normal matrix. One screen of a few hundred candidates then costs a
+        few small matrix products instead of a compiled step each."""
+        singles = [t for t in ts if len(self.b.columns[t]) == 1]
+        out: dict[int, tuple[float, float] | None] = {t: None for t in ts}
+        free = self.b.mask(state.active)
+        m_new = int(free.sum()) + 1
+        if singles and self.n - m_new >= 1:
+            got = self._screen_singles(state, singles, jac, free, m_new)
+        else:
+            got = {}
+        for t in ts:
+            if t in got:
+                out[t] = got[t]
+            elif len(self.b.columns[t]) != 1:
+                out[t] = self.screen(state, t, jac)
+        return out
+
+    def _screen_singles(self, state, singles, jac, free, m_new):
+        old = np.flatnonzero(free)
+        cand = np.array([self.b.columns[t][0] for t in singles])
+        got: dict[int, tuple[float, float] | None] = {}
+        # Correlations (at the fit's values): unit columns, C = (A^T A)^-1 of the model's,
+        # g = C A^T c, |c_perp|^2 = 1 - c^T A g, r(a_i, c) = -g_i / sqrt(|c_perp|^2 C_ii + g_i^2).
+        a = jac[:, old]
+        c = jac[:, cand]
+        a_norm = np.linalg.norm(a, axis=0)
+        c_norm = np.linalg.norm(c, axis=0)
+        usable = (c_norm > 0) & np.all(np.isfinite(c), axis=0)
+        if not (np.all(a_norm > 0) and np.all(np.isfinite(a))) or (
+            len(old) and np.linalg.matrix_rank(a / a_norm, tol=1e-10) < len(old)
+        ):
+            corr, apart = None, np.zeros(len(singles), bool)
+        else:
+            an = a / a_norm
+            cn = np.where(usable, c, 0.0) / np.where(usable, c_norm, 1.0)
+            cov = np.linalg.inv(an.T @ an) if len(old) else np.zeros((0, 0))
+            g = cov @ (an.T @ cn)
+            perp2 = 1.0 - np.sum(cn * (an @ g), axis=0)
+            apart = usable & (perp2 > 1e-20)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                corr = -g / np.sqrt(np.maximum(perp2, 0.0)[None, :] * np.diag(cov)[:, None] + g**2)
+        # The linearised step from the fit's origin: partitioned least squares.
+        rows = np.repeat(self.b.scheme.fit_rows, 2)
+        jac0 = np.asarray(state.origin[0])[0][rows]
+        r0 = np.asarray(state.origin[1])[0][self.b.scheme.fit_rows].reshape(-1)
+        q = np.linalg.qr(jac0[:, old])[0] if len(old) else np.zeros((len(r0), 0))
+        r_perp = r0 - q @ (q.T @ r0)
+        c0 = jac0[:, cand]
+        c_perp = c0 - q @ (q.T @ c0)
+        norm2 = np.sum(c_perp**2, axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            proj = c_perp.T @ r_perp
+            sky = np.sqrt(np.maximum(r_perp @ r_perp - proj**2 / norm2, 0.0) / self.n)
+            z = np.abs(proj) / (np.sqrt(norm2) * sky)
+        for k, t in enumerate(singles):
+            name = self.names[t]
+            if corr is None or not apart[k] or not np.all(np.isfinite(corr[:, k])):
+                self.mimics.setdefault(name, (name, "the model's terms together", 1.0))
+                continue
+            if len(old):
+                i = int(np.argmax(np.abs(corr[:, k])))
+                if abs(corr[i, k]) > self.collinearity:
+                    partner = self.params[old[i]]
+                    self.mimics.setdefault(name, (name, self.names[partner.term], float(corr[i, k])))
+                    continue
+            if not (np.isfinite(z[k]) and norm2[k] > 0):
+                continue
+            got[t] = (float(z[k]), _popn_sd(float(sky[k]), self.n, m_new))
+        return got
+
     def screen(self, state: FitState, t: int, jac: np.ndarray) -> tuple[float, float] | None:
         """``(|value/sigma|, Popn SD)`` with ``t`` added (one linearised step), or None when
         it cannot be determined or mimics a term in the model."""
@@ -329,10 +432,12 @@ def fauto(
     start: Model | str | None = None,
     further: Iterable[str] | None = None,
     max_order: int = 8,
+    max_product_order: int = 0,
     harmonics: Iterable[str] | None = None,
     significance: float = 2.0,
     collinearity: float = 0.99,
-    keep_start: bool = True,
+    start_rule: str = "popn",
+    keep_start: bool | None = None,
     outlier_sigmas: float = 3.0,
     correlated: float = 0.95,
     form: str = "rigorous",
@@ -348,15 +453,24 @@ def fauto(
         further: further physical terms tried first (default :data:`FAUTO_PHYSICAL`'s).
         max_order: highest harmonic order tried (:func:`harmonic_candidates`; default 8,
             the highest order in TPOINT's FAUTO models, ``benchmarks/fauto_notes.md``).
+        max_product_order: two-coordinate product harmonics (:func:`product_candidates`,
+            both orders to this, ``12 max_product_order^2`` names) are tried in a last
+            stage, with the single harmonics still open (default 0: none; order 4
+            helped one real run and broke another's term target,
+            ``benchmarks/fauto_notes.md``; X-Y mounts have none).
         harmonics: harmonic names to try instead (all in the first harmonic stage).
         significance: the ``|value / sigma|`` a term needs to be added and to stay (default 2).
         collinearity: a candidate whose parameter correlation with a term in the model
             exceeds this in absolute value is not tried (default 0.99).
-        keep_start: the start model's terms are never dropped (default True). False: a
-            start term that is, or becomes, less significant than ``significance`` is
-            dropped like an added one, as TPOINT's FAUTO holds such basic terms at 0; on
-            a simulated run with CA and NPAE both planted that drops both (they are
-            correlated), so it is not the default.
+        start_rule: when a start term is dropped (it is not tried again):
+            'popn' (default): the least significant start term is dropped when the
+            refit without it has the lower Popn SD (for a linear problem: ``|value /
+            sigma| < sqrt(N / (N - M))``), one at a time, at the start and after every
+            addition, as TPOINT's FAUTO holds insignificant basic terms at 0;
+            'significance': like an added term, when ``|value / sigma| < significance``
+            (drops correlated planted terms on a simulated run); 'never'.
+        keep_start: the older switch: True is ``start_rule='never'``, False
+            ``start_rule='significance'``.
         outlier_sigmas: observations whose on-sky residual exceeds this many Popn SD are
             reported as weak outlier candidates (default 3).
         correlated: fitted pairs with ``|r|`` at least this are reported (default 0.95).
@@ -367,8 +481,13 @@ def fauto(
     """
     if not (math.isfinite(significance) and significance > 0 and 0 < collinearity <= 1):
         raise ValueError(f"significance must be > 0 and 0 < collinearity <= 1, got {significance!r}, {collinearity!r}")
-    if int(max_order) != max_order or max_order < 0:
-        raise ValueError(f"max_order must be a whole number >= 0, got {max_order!r}")
+    for label, value in (("max_order", max_order), ("max_product_order", max_product_order)):
+        if int(value) != value or value < 0:
+            raise ValueError(f"{label} must be a whole number >= 0, got {value!r}")
+    if keep_start is not None:
+        start_rule = "never" if keep_start else "significance"
+    if start_rule not in ("popn", "significance", "never"):
+        raise ValueError(f"start_rule must be 'popn', 'significance' or 'never', got {start_rule!r}")
     obs = getattr(data, "observations", data)
     kind_hint = "equatorial" if getattr(data, "mount", None) == "equatorial" else None
     scheme = evaluation_scheme(obs, None, None, 0)
@@ -383,6 +502,8 @@ def fauto(
     elif max_order >= 1:
         names = [n for k in range(1, int(max_order) + 1) for n in harmonic_candidates(kind, k)]
         stages.append(("harmonic", [n for n in names if n not in in_start]))
+    if max_product_order >= 1 and harmonics is None:
+        stages.append(("product", [n for n in product_candidates(kind, int(max_product_order)) if n not in in_start]))
     pool = [n for _, names in stages for n in names]
     if len(set(pool)) != len(pool):
         raise ValueError("a candidate is named twice")
@@ -395,7 +516,7 @@ def fauto(
     n_start = len(start_model.terms)
     index = {n: i for i, n in enumerate(names)}
     search = _Search(builder, superset.parameters, names, scheme.n_fit, collinearity)
-    kept = set(range(n_start)) if keep_start else set()
+    kept = set(range(n_start)) if start_rule != "significance" else set()
 
     state = builder.state(frozenset(i for i in range(n_start) if builder.columns.get(i)), builder.y_start)
     steps = [FautoStep("start", "start", " ".join(names[:n_start]), state.n_params, state.sky_rms,
@@ -415,7 +536,24 @@ def fauto(
             state = builder.state(state.active - {t}, state.y)
             steps.append(FautoStep(stage, "drop", names[t], state.n_params, state.sky_rms, search.popn(state), z[t]))
 
-    state = drop_weak(state, "start")
+    def drop_start(state: FitState, stage: str) -> FitState:
+        """start_rule 'popn': while the refit without the least significant start term
+        has the lower Popn SD, drop it (it is not tried again)."""
+        while start_rule == "popn":
+            z = {t: builder.significance(state, t) for t in sorted(state.active & kept)}
+            if not z:
+                return state
+            t = min(z, key=lambda k: (z[k], k))
+            trial = builder.state(state.active - {t}, state.y)
+            if not search.popn(trial) < search.popn(state):
+                return state
+            barred.add(t)
+            state = trial
+            steps.append(FautoStep(stage, "drop", names[t], state.n_params, state.sky_rms, search.popn(state), z[t]))
+            state = drop_weak(state, stage)
+        return state
+
+    state = drop_start(drop_weak(state, "start"), "start")
     open_ids: list[int] = []
     for stage, stage_names in stages:
         open_ids += [index[n] for n in stage_names if builder.columns.get(index[n])]
@@ -423,10 +561,10 @@ def fauto(
             jac = search.jacobian(state)
             current = search.popn(state)
             best = None
-            for t in open_ids:
-                if t in state.active or t in barred:
-                    continue
-                got = search.screen(state, t, jac)
+            trying = [t for t in open_ids if t not in state.active and t not in barred]
+            screened = search.screen_all(state, trying, jac)
+            for t in trying:
+                got = screened[t]
                 if got is None or got[0] < significance or not got[1] < current:
                     continue
                 if best is None or got[1] < best[1]:
@@ -436,14 +574,21 @@ def fauto(
             state = builder.state(state.active | {best[0]}, state.y)
             steps.append(FautoStep(stage, "add", names[best[0]], state.n_params, state.sky_rms, search.popn(state),
                                    builder.significance(state, best[0])))
-            state = drop_weak(state, stage)
+            state = drop_start(drop_weak(state, stage), stage)
     result = _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
-                     significance, collinearity, keep_start, max_order)
+                     significance, collinearity, start_rule, max_order, max_product_order)
     return dataclasses.replace(result, outliers=tuple((int(in_use[i]), r) for i, r in result.outliers))
 
 
+_START_RULES = {
+    "never": " (start terms kept)",
+    "significance": " (start terms too)",
+    "popn": ", a start term when Popn SD falls without it",
+}
+
+
 def _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
-            significance, collinearity, keep_start, max_order) -> Fauto:
+            significance, collinearity, start_rule, max_order, max_product_order) -> Fauto:
     names = search.names
     final = [i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))]
     fitted = superset.with_values(jax.device_put(state.y))
@@ -464,8 +609,9 @@ def _result(builder, superset, start_model, state, steps, search, n_start, kept,
     added = tuple(names[i] for i in sorted(state.active) if i >= n_start)
     rules = (
         f"add: |value/sigma| >= {significance:g} and Popn SD falls, no |r| > {collinearity:g} with a term in; "
-        f"drop: |value/sigma| < {significance:g}{' (start terms kept)' if keep_start else ''}; "
-        f"harmonics to order {max_order}; pointax's rule"
+        f"drop: |value/sigma| < {significance:g}{_START_RULES[start_rule]}; "
+        f"harmonics to order {max_order}"
+        f"{f', products to order {max_product_order}' if max_product_order else ''}; pointax's rule"
     )
     return Fauto(
         model=model,

@@ -325,8 +325,10 @@ def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
     """FAUTO [NAME ...]: TPOINT-style automatic model building (:func:`pointax.analysis.fauto`):
     from the terms in use and the mount's basic physical terms, try the further physical
     terms, then harmonics to order 8 (or only the named candidates), keeping those with
-    |value/sigma| >= 2 that lower Popn SD and mimic no term in the model; prints the steps,
-    weak outlier candidates and pairs not reliably distinguished, on the unmasked stars.
+    |value/sigma| >= 2 that lower Popn SD and mimic no term in the model, and dropping a
+    start term when Popn SD falls without it (FAUTO NAME ...: only the named candidates are
+    tried and the terms in use kept); prints the steps, weak outlier candidates and pairs
+    not reliably distinguished, on the unmasked stars.
     FAUTO CV [NAME ...]: the cross-validated builder (:func:`pointax.build_model`) instead."""
     from ..analysis.fauto import fauto
 
@@ -341,8 +343,8 @@ def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
             _check_terms(s, named)
         start = _fauto_start(s)
         chosen = None if named is None else [n for n in named if n not in {t.name for t in start.terms}]
-        result = fauto(s.observations(), start=start, harmonics=chosen,
-                       further=() if named is not None else None, form=s.form)
+        result = fauto(s.observations(), start=start, harmonics=chosen, further=() if named is not None else None,
+                       start_rule="never" if named is not None else "popn", form=s.form)
         s.say(result.report())
         s.say("(& marks the terms FAUTO added)")
         s.terms = [t.name.upper() for t in result.model.terms]
