@@ -13,7 +13,7 @@ import pointax as px
 from compile_counter import COUNTER
 from pointax.core.simulate import encoder_grid
 from pointax.fitting.options import FitOptions
-from pointax.fitting.solo import fit_bucket, fit_model, pad_rows
+from pointax.fitting.solo import fit_bucket, fit_model, pad_observations
 
 ARCSEC = np.pi / 648000
 TRUE = {"IA": 40.0, "IE": -12.0, "CA": -8.0, "AN": 3.0, "AW": -6.0, "TF": 9.0}
@@ -84,8 +84,8 @@ def test_padded_fit_equals_numpy_least_squares(run):
 
 def test_padding_rows_have_weight_zero_and_copy_the_first(run):
     obs = run[:5]
-    padded = pad_rows(obs, 16)
+    padded = pad_observations(obs, 16)
     assert len(padded) == 16
     np.testing.assert_array_equal(np.asarray(padded.weight), [1.0] * 5 + [0.0] * 11)
     np.testing.assert_array_equal(np.asarray(padded.encoder)[5:], np.repeat(np.asarray(obs.encoder)[:1], 11, 0))
-    assert pad_rows(obs, 5) is obs
+    assert pad_observations(obs, 5) is obs

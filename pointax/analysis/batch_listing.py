@@ -14,24 +14,16 @@ key order and numbers (``tests/test_batch_records.py``).
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
 
 from ..core.units import ARCSEC, DEG
-from ..fitting.result import FitResult
+from ..fitting.batch_records import site_result
+from ..fitting.result import FitResult, first_rows
 from .listing import EQUATORIAL_KEYS, LISTING_KEYS, observation_entries
 
 __all__ = ["batch_observation_entries"]
-
-
-def _site(result: FitResult, site: int, n: int) -> FitResult:
-    """Site ``site`` of a batched result, its per-row fields cut to its ``n`` rows."""
-    from ..fitting.batch import PER_ROW_FIELDS, site_result
-
-    one = site_result(result, site)
-    return dataclasses.replace(one, **{name: np.asarray(getattr(one, name))[:n] for name in PER_ROW_FIELDS})
 
 
 def batch_observation_entries(runs, result: FitResult) -> list[list[dict[str, Any]]]:
@@ -47,7 +39,7 @@ def batch_observation_entries(runs, result: FitResult) -> list[list[dict[str, An
     every_row = np.array([bool(np.all(np.asarray(run.observations.weight) > 0)) for run in runs], bool)
     out: list[list[dict[str, Any]] | None] = [None] * len(runs)
     for k in np.flatnonzero(~every_row).tolist():
-        out[k] = observation_entries(runs[k], _site(result, k, int(lengths[k])))
+        out[k] = observation_entries(runs[k], first_rows(site_result(result, k), int(lengths[k])))
     fast = np.flatnonzero(every_row)
     for keys in (LISTING_KEYS, EQUATORIAL_KEYS):
         chosen = [k for k in fast.tolist() if (EQUATORIAL_KEYS if _equatorial(runs[k]) else LISTING_KEYS) == keys]

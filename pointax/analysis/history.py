@@ -422,6 +422,7 @@ def history(
             wrong length, runs in another encoder convention than the model's.
     """
     from ..fitting.batch import fit_batch, site_result, site_statuses, stack_observations
+    from ..fitting.result import first_rows
 
     runs = list(runs)
     if not runs:
@@ -450,7 +451,7 @@ def history(
     statuses = site_statuses(batch)
     fits = [
         RunFit(
-            file=labels[k], time=found[k][0], time_from=found[k][1], result=_trimmed(site_result(batch, k), len(observations[k])),
+            file=labels[k], time=found[k][0], time_from=found[k][1], result=first_rows(site_result(batch, k), len(observations[k])),
             status=statuses[k]["status"], reason=statuses[k]["reason"], observations=observations[k], run=runs[k],
         )  # fmt: skip
         for k in range(len(runs))
@@ -473,17 +474,6 @@ def _to_numpy(result):
     import jax
 
     return jax.tree.map(np.asarray, result)
-
-
-def _trimmed(result: FitResult, n: int) -> FitResult:
-    """One run's result without the batch's padding rows."""
-    import equinox as eqx
-
-    return eqx.tree_at(
-        lambda r: (r.residuals, r.used, r.loo_residuals, r.outliers),
-        result,
-        (result.residuals[:n], result.used[:n], result.loo_residuals[:n], result.outliers[:n]),
-    )
 
 
 def _alarms(fits: list[RunFit], level: float, notes: list[str]) -> list[Alarm]:

@@ -42,6 +42,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .padding import power_of_two
 from .precision import float64
 from .model import Model
 from .rotations import angle_between, tangent_offset
@@ -490,7 +491,7 @@ def command(
     # (one compilation for every set of values).
     model = model.with_values(model.values())
     # Pad the batch to a power of two: one compilation serves many batch sizes.
-    size = max(_MIN_BATCH, 1 << max(n - 1, 0).bit_length())
+    size = power_of_two(n, _MIN_BATCH)
     pad = size - n
     flat = jnp.concatenate([flat, jnp.broadcast_to(jnp.asarray(_SAFE), (pad, 3))])
     near_flat = jnp.concatenate([near_flat, jnp.zeros((pad, 2))])

@@ -10,6 +10,7 @@ from jaxtyping import ArrayLike, Float
 from .precision import float64
 from .model import Model
 from .observations import Observations
+from .padding import pad_rows, power_of_two
 from .rotations import offset_direction
 from .units import angles_in_radians
 
@@ -50,7 +51,7 @@ def simulate(
     # One compiled program per model structure and bucket of rows (padded rows repeat
     # the first reading and are dropped), not one per observation count.
     rows = simulation_bucket(n)
-    pad = lambda x: np.concatenate([x, np.repeat(x[:1], rows - n, axis=0)]) if n and rows > n else x  # noqa: E731
+    pad = lambda x: pad_rows(x, rows) if n else x  # noqa: E731
     readings = {k: np.broadcast_to(np.asarray(v, np.float64), (n,)) for k, v in (readings or {}).items()}
     padded = {k: pad(v) for k, v in readings.items()}
     target = np.asarray(_noisy_directions(model, pad(np.asarray(encoder, np.float64)), pad(offsets), padded))[:n]
@@ -61,7 +62,7 @@ def simulation_bucket(n: int) -> int:
     """Rows :func:`simulate` evaluates for ``n`` observations: at least 128, else the
     next power of two (evaluating a model at 128 directions costs far less than
     compiling it for another size)."""
-    return max(128, 1 << (max(int(n), 1) - 1).bit_length())
+    return power_of_two(n, 128)
 
 
 @jax.jit

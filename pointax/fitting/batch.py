@@ -29,6 +29,7 @@ from jaxtyping import ArrayLike, Float
 
 from ..core.model import Model
 from ..core.observations import Observations
+from ..core.padding import power_of_two
 from ..core.precision import float64
 from .batch_fast_pass import (
     DEFAULT_STEPS,
@@ -41,6 +42,7 @@ from .batch_fast_pass import (
 )
 from . import programs
 from .core import fit_result_structure
+from .batch_records import site_result, site_statuses
 from .options import FitOptions
 from .problem import is_affine
 from .progress import activity, progress_bar
@@ -125,25 +127,6 @@ def host_batch(observations: Observations) -> Observations:
         observations.convention,
         {k: np.asarray(v, np.float64) for k, v in observations.readings.items()},
     )
-
-
-def site_result(result: FitResult, site: int) -> FitResult:
-    """One site's :class:`pointax.FitResult` out of a batched one (report, table, ...)."""
-    # x[site, ...] keeps 0-d arrays (x[site] of a NumPy leaf would be a NumPy scalar).
-    return jax.tree.map(lambda x: x[site, ...], result)
-
-
-def site_statuses(result: FitResult) -> list[dict[str, str]]:
-    """Per site of a batched result: ``{"status": ..., "reason": ...}`` with status
-    ``"converged"``, ``"degenerate"`` (converged, but some parameters cannot be told
-    apart: the reason names them) or ``"failed"`` (the reason says why: too few
-    observations for the free parameters, as :func:`pointax.fit` refuses them, or why
-    the solver stopped). A converged site whose values lie outside their declared ranges
-    (:mod:`pointax.fitting.ranges`: an equivalent solution in another branch) keeps its
-    status, with the reason saying so."""
-    from .batch_records import site_statuses as column_wise
-
-    return column_wise(result)  # one NumPy pass per field, not a FitResult per site
 
 
 def check_batch(observations) -> None:
@@ -305,11 +288,6 @@ def _rows_back(result: FitResult, rows: int) -> FitResult:
     return eqx.tree_at(fields, result, grown)
 
 
-def _power_of_two(n: int) -> int:
-    """The smallest power of two >= ``n`` (``n >= 1``)."""
-    return 1 << (int(n) - 1).bit_length()
-
-
 def _pad_sites(tree, size: int):
     """Pad the leading (site) axis of every leaf to ``size`` with copies of site 0, and
     hand the leaves to JAX in one ``device_put`` (``jnp.asarray`` would compile a small
@@ -446,7 +424,7 @@ def fit_batch(
         if chunk_size != "auto":
             raise ValueError(f"chunk_size must be a number of sites, None or 'auto', got {chunk_size!r}")
         chunk_size = default_chunk_size(model)
-    size = n_sites if chunk_size is None else min(max(1, int(chunk_size)), _power_of_two(n_sites))
+    size = n_sites if chunk_size is None else min(max(1, int(chunk_size)), power_of_two(n_sites))
     n_rows = observations.encoder.shape[1]
     chunks = _chunk_plan(_site_lengths(site_obs.weight), size, n_rows)
     bar = progress_bar(n_sites, "fitting", "site", enabled=True) if progress is True else None
@@ -474,7 +452,7 @@ def fit_batch(
                 n = len(index)
                 again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
                 if again.size:
-                    pad = max(8, _power_of_two(again.size))
+                    pad = power_of_two(again.size, 8)
                     redo = full_loop(
                         _pad_sites(np.asarray(y0)[again], pad), _pad_sites(_take_sites(obs, again), pad), np.arange(pad) < again.size
                     )

@@ -18,18 +18,19 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
 import numpy as np
 
 from ..core.units import ARCSEC, UNITS
+from .ranges import range_warning
 from .result import ABSURD_SKY_RMS_DEG, CORRELATION_WARNING, FitResult
 
-__all__ = ["site_statuses", "site_dicts"]
+__all__ = ["site_result", "site_statuses", "site_dicts"]
 
 
-def _one(result: FitResult, site: int) -> FitResult:
-    """One site's result (as :func:`pointax.fitting.batch.site_result`)."""
-    import jax
-
+def site_result(result: FitResult, site: int) -> FitResult:
+    """One site's :class:`pointax.FitResult` out of a batched one (report, table, ...)."""
+    # x[site, ...] keeps 0-d arrays (x[site] of a NumPy leaf would be a NumPy scalar).
     return jax.tree.map(lambda x: x[site, ...], result)
 
 
@@ -49,9 +50,14 @@ def _out_of_range(values: np.ndarray, params) -> np.ndarray:
 
 
 def site_statuses(result: FitResult) -> list[dict[str, str]]:
-    """:func:`pointax.site_statuses` of a batched ``result``, column-wise (same dicts)."""
-    from .ranges import range_warning
-
+    """Per site of a batched result: ``{"status": ..., "reason": ...}`` with status
+    ``"converged"``, ``"degenerate"`` (converged, but some parameters cannot be told
+    apart: the reason names them) or ``"failed"`` (the reason says why: too few
+    observations for the free parameters, as :func:`pointax.fit` refuses them, or why
+    the solver stopped). A converged site whose values lie outside their declared ranges
+    (:mod:`pointax.fitting.ranges`: an equivalent solution in another branch) keeps its
+    status, with the reason saying so. Column-wise: one NumPy pass per field, not a
+    FitResult per site."""
     n = _n_sites(result)
     converged = np.asarray(result.converged, bool).reshape(n)
     degenerate = np.asarray(result.degenerate, bool).reshape(n, len(result.names))
@@ -61,7 +67,7 @@ def site_statuses(result: FitResult) -> list[dict[str, str]]:
     out: list[dict[str, str]] = []
     for k, (ok, flags, far) in enumerate(zip(converged.tolist(), degenerate.any(axis=1).tolist(), outside.tolist())):
         if not ok:
-            out.append({"status": "failed", "reason": _one(result, k).message})
+            out.append({"status": "failed", "reason": site_result(result, k).message})
         elif flags:
             names = [name for name, d in zip(result.names, degenerate[k]) if d]
             out.append({"status": "degenerate", "reason": "cannot be told apart: " + ", ".join(names)})
@@ -141,7 +147,7 @@ def site_dicts(result: FitResult) -> list[dict[str, Any]]:
     out = []
     for k, simple in enumerate(plain.tolist()):
         if not simple:
-            out.append(_one(result, k).to_dict())
+            out.append(site_result(result, k).to_dict())
             continue
         flagged = [int(i) for i in np.flatnonzero(outliers[k])] if any_outlier[k] else []
         out.append(

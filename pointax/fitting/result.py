@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -115,6 +116,12 @@ def too_little_data(n_used: int, params) -> str:
 
 PER_ROW_FIELDS = ("residuals", "used", "loo_residuals", "outliers")
 """The fields of a :class:`pointax.FitResult` with one entry per observation row."""
+
+
+def first_rows(result: "FitResult", n: int) -> "FitResult":
+    """``result`` with its per-row fields (:data:`PER_ROW_FIELDS`) cut to the first ``n``
+    rows: a fit of padded rows, or one site of a batch, without the padding."""
+    return dataclasses.replace(result, **{name: getattr(result, name)[:n] for name in PER_ROW_FIELDS})
 
 
 class FitResult(eqx.Module):

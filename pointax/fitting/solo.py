@@ -8,7 +8,6 @@ form, data shape or option compiles again.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 
 import equinox as eqx
@@ -16,6 +15,7 @@ import jax
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..core.padding import pad_rows, power_of_two
 from ..core.precision import float64
 from ..core.model import Model
 from ..core.observations import Observations
@@ -24,7 +24,7 @@ from .core import fit_core, free_mask, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
 from .ranges import wrap_periodic
-from .result import PER_ROW_FIELDS, FitResult, too_little_data
+from .result import FitResult, first_rows, too_little_data
 from .structure import embed
 
 __all__ = ["fit", "prepare", "fit_model", "options_from", "check_enough_data"]
@@ -124,14 +124,14 @@ def fit(
         caption = getattr(data, "caption", "") or ""
     embedding = embed(model)
     n = len(obs)
-    padded = pad_rows(obs, fit_bucket(n))
+    padded = pad_observations(obs, fit_bucket(n))
     if programs.directory() is not None:  # traced programs kept on disk
         args = (embedding.model, embedding.free, padded)
         full = programs.call("fit_core", fit_core, args, options, result_structure, fast_compile=True)
     else:
         dynamic, static = eqx.partition((embedding.model, embedding.free, padded), eqx.is_array)
         full = _fit_core_jit()(dynamic, static, options)
-    full = unpad_rows(jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, full), n)
+    full = first_rows(jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, full), n)
     # An encoder zero that ended a turn away is reported in its range (same model).
     return wrap_periodic(restrict(full, embedding.index, model, caption, numpy=True))
 
@@ -141,29 +141,22 @@ def fit_bucket(n: int) -> int:
     at least 16. Runs of 80 and 83 stars then share one compiled (and stored) fit, so
     tonight's run is not compiled again because it has a few more stars than last
     night's; the padding costs microseconds of solving, a new size seconds of compiling."""
-    return max(16, 1 << (max(int(n), 1) - 1).bit_length())
+    return power_of_two(n, 16)
 
 
-def pad_rows(obs: Observations, rows: int) -> Observations:
+def pad_observations(obs: Observations, rows: int) -> Observations:
     """``obs`` with rows added up to ``rows``: copies of the first observation (a real
     direction, finite readings) at weight 0, so they never enter the fit."""
     n = len(obs)
     if rows <= n:
         return obs
-    extend = lambda x: np.concatenate([x, np.repeat(x[:1], rows - n, axis=0)])  # noqa: E731
     return Observations(
-        extend(np.asarray(obs.encoder)),
-        extend(np.asarray(obs.target)),
+        pad_rows(obs.encoder, rows),
+        pad_rows(obs.target, rows),
         np.concatenate([np.asarray(obs.weight), np.zeros(rows - n)]),
         obs.convention,
-        {k: extend(np.asarray(v)) for k, v in obs.readings.items()},
+        {k: pad_rows(v, rows) for k, v in obs.readings.items()},
     )
-
-
-def unpad_rows(result: FitResult, n: int) -> FitResult:
-    """``result`` of a fit of padded rows (:func:`pad_rows`) cut back to the first ``n``."""
-    fields = {name: getattr(result, name)[:n] for name in PER_ROW_FIELDS}
-    return dataclasses.replace(result, **fields)
 
 
 def prepare(model: Model, data, weights=None, fixed: tuple[str, ...] = ()) -> tuple[Model, Observations]:

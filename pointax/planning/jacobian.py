@@ -22,6 +22,7 @@ from jaxtyping import Array, ArrayLike, Float
 from ..core.precision import float64
 from ..core.model import Model
 from ..core.observations import COUNTED_READINGS
+from ..core.padding import pad_rows, power_of_two
 from ..core.rotations import angle_between, tangent_offset, wrap_pi
 from ..core.units import directions_enu
 
@@ -50,14 +51,7 @@ _MIN_BATCH = 64
 def padded_size(n: int) -> int:
     """The batch size ``n`` is padded to (a power of two, at least 64): one compilation
     serves many sizes (as :func:`pointax.command` does)."""
-    return max(_MIN_BATCH, 1 << max(int(n) - 1, 0).bit_length())
-
-
-def pad_rows(x: np.ndarray, size: int) -> np.ndarray:
-    """Rows of ``x`` padded to ``size`` with copies of its first row."""
-    if x.shape[0] == size:
-        return x
-    return np.concatenate([x, np.broadcast_to(x[:1], (size - x.shape[0],) + x.shape[1:])])
+    return power_of_two(n, _MIN_BATCH)
 
 
 def _arrays(model: Model) -> Model:
