@@ -1,22 +1,30 @@
 """Partial pooling of a network (``px.fit_pooled``) against independent fits
 (``px.fit_batch``): held-out pointing error by site size, and fits per second.
 
-The network: alt-az telescopes of one design, TPOINT's linear terms IA IE AN AW TF
+The network: alt-az mounts of one design, TPOINT's linear terms IA IE AN AW TF
 fitted in TPOINT's residual form (affine in the parameters), each site's true
-coefficients drawn from one population (mean and spread below), 5" noise per axis
-(``--noise``: the gain of pooling grows with the noise against the population's spread).
-Sites have 3, 5, 10 or 60 stars at random places on the sky (a quarter each, padded
-to 60 rows in one batch). A site's held-out pointing error is the RMS, over 100 other
-random places on the sky, of the on-sky difference between its fitted model and its
-true one; the table gives the RMS of that over the sites of each size. Timing: both
-fits of the whole network, warm (the first call's compilation excluded), best of
-``--repeat``.
+coefficients drawn from one population (``POPULATIONS``: mean, spread and noise per
+axis for each geometry; the gain of pooling grows with the noise against the spread).
+Sites have 3, 5, 10 or 60 observations (a quarter each, padded to 60 rows in one
+batch). Two geometries, each its own network and table:
+
+* ``sun`` (the JSON's ``by_size``): sun trackers, the issue's case. A new installation
+  (3, 5 or 10 observations) has seen the sun on one day, so its observations lie on
+  one arc; a site with 60 has seen it on 60 days of a year. The held-out places are
+  the sun's over a year (the places the site will point at).
+* ``sky`` (``by_size_sky``): telescopes, stars and held-out places at random on the
+  sky for every size.
+
+A site's held-out pointing error is the RMS, over 100 held-out places, of the on-sky
+difference between its fitted model and its true one; the table gives the RMS of that
+over the sites of each size. Timing (sun network): both fits of the whole network,
+warm (the first call's compilation excluded), best of ``--repeat``.
 
     .venv/bin/python benchmarks/pooled.py [--sites 10000] [--repeat 3]
 
-Prints a table and writes ``benchmarks/results/pooled.json``:
+Prints the tables and writes ``benchmarks/results/pooled.json``:
 ``{"by_size": [{"n_obs", "pooled_error_arcsec", "independent_error_arcsec"}, ...],
-"pooled_fits_per_s", "independent_fits_per_s"}``.
+"by_size_sky": [...], "pooled_fits_per_s", "independent_fits_per_s"}``.
 """
 
 from __future__ import annotations
@@ -33,9 +41,13 @@ import pointax as px
 HERE = Path(__file__).resolve().parent
 NAMES = ("IA", "IE", "AN", "AW", "TF")
 ARCSEC = np.pi / 180 / 3600
-MEAN = np.array([0.0, 0.0, 0.0, 0.0, 15.0]) * ARCSEC
-SPREAD = np.array([5.0, 5.0, 2.0, 2.0, 2.0]) * ARCSEC
-NOISE = 5.0 * ARCSEC
+# Each geometry's population (mean, spread) and noise per axis, arcsec. Telescopes: a
+# spread of a few arcseconds, comparable to the noise of a star's centroid. Sun trackers:
+# mounts installed to arcminutes, a sun sensor that resolves ten arcseconds.
+POPULATIONS = {
+    "sky": (np.array([0.0, 0.0, 0.0, 0.0, 15.0]), np.array([5.0, 5.0, 2.0, 2.0, 2.0]), 5.0),
+    "sun": (np.array([0.0, 0.0, 0.0, 0.0, 30.0]), np.array([60.0, 60.0, 30.0, 30.0, 20.0]), 10.0),
+}
 SIZES = (3, 5, 10, 60)
 HELD_OUT = 100
 
@@ -53,13 +65,47 @@ def sky(rng, shape):
     return rng.uniform(0, 2 * np.pi, shape), np.arcsin(rng.uniform(np.sin(np.radians(15)), np.sin(np.radians(85)), shape))
 
 
-def network(n_sites: int, seed: int = 1, noise: float = NOISE):
-    """``(batch, truth (S, 5), sizes (S,), held-out (A, E) (S, HELD_OUT))``."""
+
+LATITUDE = np.radians(35.0)
+
+
+def sun(rng, days, hours_per_day):
+    """The sun's azimuth (from North through East) and elevation, ``days`` of shape
+    ``(S, D)`` (day of the year), ``hours_per_day`` places a day at random times with the
+    sun above 15 degrees: ``(S, D * hours_per_day)`` each. A circular orbit and
+    declination (23.44 degrees of obliquity) at latitude 35 degrees: the geometry of a
+    sun tracker, not an ephemeris."""
+    dec = -np.radians(23.44) * np.cos(2 * np.pi * (days + 10) / 365.25)
+    dec = np.repeat(dec, hours_per_day, axis=-1)
+    lo = np.sin(np.radians(15.0))
+    # the hour angle at which the sun crosses 15 degrees (|cos h| <= 1 at this latitude)
+    cos_h = (lo - np.sin(LATITUDE) * np.sin(dec)) / (np.cos(LATITUDE) * np.cos(dec))
+    h_max = np.arccos(np.clip(cos_h, -1.0, 1.0))
+    h = h_max * rng.uniform(-1.0, 1.0, dec.shape)
+    sin_e = np.sin(LATITUDE) * np.sin(dec) + np.cos(LATITUDE) * np.cos(dec) * np.cos(h)
+    az = np.arctan2(-np.cos(dec) * np.sin(h), np.sin(dec) * np.cos(LATITUDE) - np.cos(dec) * np.cos(h) * np.sin(LATITUDE))
+    return np.mod(az, 2 * np.pi), np.arcsin(sin_e)
+
+
+def places(rng, sizes, n_max: int, geometry: str):
+    """``(A, E)``, ``(S, n_max)`` each: where each site observed (see the module)."""
+    if geometry == "sky":
+        return sky(rng, (len(sizes), n_max))
+    one_day = sun(rng, rng.uniform(0, 365.25, (len(sizes), 1)), n_max)
+    year = sun(rng, rng.uniform(0, 365.25, (len(sizes), n_max)), 1)
+    new = (sizes < n_max)[:, None]
+    return np.where(new, one_day[0], year[0]), np.where(new, one_day[1], year[1])
+
+def network(n_sites: int, seed: int = 1, geometry: str = "sun", noise: float | None = None):
+    """``(batch, truth (S, 5), sizes (S,), held-out (A, E) (S, HELD_OUT))``; ``noise``
+    (radians) replaces the geometry's."""
+    mean, spread, default_noise = POPULATIONS[geometry]
+    noise = default_noise * ARCSEC if noise is None else noise
     rng = np.random.default_rng(seed)
     sizes = np.array([SIZES[k % len(SIZES)] for k in range(n_sites)])
-    truth = MEAN + SPREAD * rng.normal(size=(n_sites, len(NAMES)))
+    truth = (mean + spread * rng.normal(size=(n_sites, len(NAMES)))) * ARCSEC
     n_max = max(SIZES)
-    A, E = sky(rng, (n_sites, n_max))
+    A, E = places(rng, sizes, n_max, geometry)
     f = basis(A, E)  # (5, 2, S, N)
     offsets = np.einsum("sk,kjsn->sjn", truth, f)  # (S, 2, N): (dA cos E, dE)
     noise = noise * rng.normal(size=offsets.shape)
@@ -73,7 +119,7 @@ def network(n_sites: int, seed: int = 1, noise: float = NOISE):
     from pointax.fitting.batch import batched_observations
 
     batch = batched_observations(encoder, target, weight, "N-E")
-    held = sky(rng, (n_sites, HELD_OUT))
+    held = sky(rng, (n_sites, HELD_OUT)) if geometry == "sky" else sun(rng, rng.uniform(0, 365.25, (n_sites, HELD_OUT)), 1)
     return batch, truth, sizes, held
 
 
@@ -94,28 +140,29 @@ def timed(fn, repeat: int):
     return out, best
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sites", type=int, default=10000)
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--noise", type=float, default=NOISE / ARCSEC, help="noise per axis, arcsec (default 5)")
-    parser.add_argument("--out", default=str(HERE / "results" / "pooled.json"))
-    args = parser.parse_args(argv)
-    model = px.AltAz(px.terms.tpoint(" ".join(NAMES), form="linear"), residual_form="tpoint")
-    batch, truth, sizes, held = network(args.sites, noise=args.noise * ARCSEC)
-    pooled, t_pooled = timed(lambda: px.fit_pooled(model, batch), args.repeat)
-    independent, t_independent = timed(lambda: px.fit_batch(model, batch), args.repeat)
+def table(model, geometry: str, args, time_it: bool):
+    """Fit one network both ways, print its table; ``(by_size rows, seconds pooled,
+    seconds independent)`` (the seconds None unless ``time_it``)."""
+    noise = None if args.noise is None else args.noise * ARCSEC
+    batch, truth, sizes, held = network(args.sites, geometry=geometry, noise=noise)
+    repeat = args.repeat if time_it else 0
+    pooled, t_pooled = timed(lambda: px.fit_pooled(model, batch), repeat)
+    independent, t_independent = timed(lambda: px.fit_batch(model, batch), repeat)
     err_p = held_out_error(pooled.sites.values, truth, held) / ARCSEC
     err_i = held_out_error(independent.values, truth, held) / ARCSEC
     ok_i = np.asarray(independent.converged) & np.all(np.isfinite(np.asarray(independent.values)), axis=-1)
-    by_size = []
-    print(f"{args.sites} sites, TPOINT IA IE AN AW TF (TPOINT form), noise {args.noise:g}\" per axis, "
-          f"population spread {', '.join(f'{n} {s / ARCSEC:g}' for n, s in zip(NAMES, SPREAD))} arcsec")  # fmt: skip
+    where = {"sun": "sun trackers: 3-10 observations on one day, 60 over a year; held out: the sun over a year",
+             "sky": "telescopes: stars and held-out places at random on the sky"}[geometry]  # fmt: skip
+    mean, spread, noise = POPULATIONS[geometry]
+    noise = noise if args.noise is None else args.noise
+    print(f"{geometry}: {where}")
+    print(f"noise {noise:g}\" per axis; population mean, spread (arcsec): "
+          + ", ".join(f"{n} {m:g}, {s:g}" for n, m, s in zip(NAMES, mean, spread)))
     print(f"pooled fit: converged {bool(pooled.converged)}, {int(pooled.iterations)} EM updates, "
           f"{int(np.sum(np.asarray(pooled.disagrees)))} sites flagged at {pooled.k:g} sigma")  # fmt: skip
-    print()
     head = ("n_obs", "sites", 'pooled (")', 'independent (")', "change", "indep. not converged")
     print("{:>5}  {:>6}  {:>11}  {:>16}  {:>7}  {:>20}".format(*head))
+    rows = []
     for n in SIZES:
         here = sizes == n
         use = here & ok_i
@@ -124,16 +171,31 @@ def main(argv=None) -> None:
             "pooled_error_arcsec": float(np.sqrt(np.mean(err_p[here] ** 2))),
             "independent_error_arcsec": float(np.sqrt(np.mean(err_i[use] ** 2))),
         }
-        by_size.append(row)
+        rows.append(row)
         change = row["pooled_error_arcsec"] / row["independent_error_arcsec"] - 1
         print(f"{n:>5}  {int(here.sum()):>6}  {row['pooled_error_arcsec']:>11.3f}  {row['independent_error_arcsec']:>16.3f}  "
               f"{change:>+7.1%}  {int((here & ~ok_i).sum()):>20}")  # fmt: skip
+    print()
+    return rows, (t_pooled if time_it else None), (t_independent if time_it else None)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sites", type=int, default=10000)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--noise", type=float, help="noise per axis, arcsec, for both networks (default: each its own)")
+    parser.add_argument("--out", default=str(HERE / "results" / "pooled.json"))
+    args = parser.parse_args(argv)
+    model = px.AltAz(px.terms.tpoint(" ".join(NAMES), form="linear"), residual_form="tpoint")
+    print(f"{args.sites} sites, TPOINT IA IE AN AW TF (TPOINT form)\n")
+    by_size, t_pooled, t_independent = table(model, "sun", args, time_it=True)
+    by_size_sky, _, _ = table(model, "sky", args, time_it=False)
     out = {
         "by_size": by_size,
+        "by_size_sky": by_size_sky,
         "pooled_fits_per_s": args.sites / t_pooled,
         "independent_fits_per_s": args.sites / t_independent,
     }
-    print()
     print(f"pooled      {t_pooled:8.3f} s  {out['pooled_fits_per_s']:10.0f} fits/s")
     print(f"independent {t_independent:8.3f} s  {out['independent_fits_per_s']:10.0f} fits/s  "
           f"(pooled at {out['pooled_fits_per_s'] / out['independent_fits_per_s']:.2f} of it)")  # fmt: skip
