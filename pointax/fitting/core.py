@@ -93,14 +93,22 @@ def free_mask(model: Model) -> np.ndarray:
 
 
 def least_squares(
-    model: Model, free: Bool[Array, " m"], obs: Observations | Problem, weight, options: FitOptions, rho=None, c2=None
+    model: Model,
+    free: Bool[Array, " m"],
+    obs: Observations | Problem,
+    weight,
+    options: FitOptions,
+    rho=None,
+    c2=None,
+    robust=True,
 ):
     """One optimistix solve of the ``free`` parameters, the others held at their values,
     on the observations ``obs`` (or their :class:`Problem`, prepared once).
 
     ``rho`` (with the squared scale ``c2``) makes it a robust fit by rescaling each
     observation's residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to
-    ``sum rho``. Returns ``(solution, scaled)``: ``solution.value`` holds every
+    ``sum rho``; ``robust`` (a boolean, may be traced) False turns the rescaling off, so
+    that one compiled solve serves robust and least-squares passes. Returns ``(solution, scaled)``: ``solution.value`` holds every
     parameter (``(M,)``, in model order) and ``scaled(y, None)`` the ``(n, 2)``
     residuals the loss sees at ``y`` (times the square roots of ``weight``, rescaled by
     ``rho`` if given), the free entries of ``y`` only taking effect.
@@ -114,7 +122,7 @@ def least_squares(
         if rho is None:
             return r
         z = jnp.sum(r**2, axis=-1)
-        positive = z > 0
+        positive = (z > 0) & robust
         safe = jnp.where(positive, z, 1.0)
         return r * jnp.where(positive, jnp.sqrt(rho(safe, c2) / safe), 1.0)[:, None]
 
@@ -140,46 +148,21 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     problem = define_problem(model, obs, free)  # what the observations fix, once for every pass
     weight = normalised_weights(obs.weight, given)
     rho = LOSSES[options.loss]
-    iterations = jnp.asarray(0)
-    robust_ok = jnp.asarray(True)
-    outliers = jnp.zeros(given.shape, bool)
-    scale = jnp.asarray(0.0)
-    if rho is not None:
-        # Residuals are judged weighted (sqrt(w) r, the quantity the loss sees), so a
-        # down-weighted observation is not rejected for being imprecise.
-        sqrt_w = jnp.sqrt(weight)[:, None]
-
-        def weighted_sigma(m):
-            return robust_sigma(problem.residuals(m) * sqrt_w, given)
-
-        # Two passes when the scale is automatic: the first starts from the scale of
-        # the starting model's residuals (may be large), the second from the fit's.
-        auto = options.loss_scale is None
-
-        def robust_pass(_, carry):
-            y, scale, iterations, robust_ok = carry
-            start = model.with_values(y)
-            # Soft margin c: two robust sigmas unless given.
-            c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(options.loss_scale) ** 2, 1e-30)
-            sol, _ = least_squares(start, free, problem, weight, options, rho, c2)
-            y = jnp.where(free, sol.value, y)
-            ok = robust_ok & (solver_status(sol.result) == SUCCESSFUL)
-            return y, weighted_sigma(start.with_values(y)), iterations + sol.stats["num_steps"], ok
-
-        # A loop, not two copies: the robust solve is compiled once (a third less code).
-        carry = (model.values("all"), weighted_sigma(model), iterations, robust_ok)
-        y, scale, iterations, robust_ok = jax.lax.fori_loop(0, 2 if auto else 1, robust_pass, carry)
-        model = model.with_values(y)
-        rw = problem.residuals(model) * sqrt_w
-        outliers = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * scale)
-    used = given & ~outliers
-    weight = normalised_weights(obs.weight, used)
-    sol, _ = least_squares(model, free, problem, weight, options)
+    if rho is None:
+        used = given
+        sol, _ = least_squares(model, free, problem, weight, options)
+        y_solver = jnp.where(free, sol.value, model.values("all"))
+        iterations, result = sol.stats["num_steps"], solver_status(sol.result)
+        outliers = jnp.zeros(given.shape, bool)
+        scale, robust_ok = jnp.asarray(0.0), jnp.asarray(True)
+    else:
+        y_solver, iterations, result, outliers, scale, robust_ok = _robust_passes(model, free, problem, obs.weight, weight, options)
+        used = given & ~outliers
+        weight = normalised_weights(obs.weight, used)
     # One Gauss-Newton step from the solver's answer (exact for residuals affine in the
     # parameters): the solver stops anywhere within its tolerances, and where it stops
     # depends on rounding, so without it the same model fitted inside unions of other
     # sizes (:mod:`pointax.fitting.structure`) differed by up to 1.4e-11 rad.
-    y_solver = jnp.where(free, sol.value, model.values("all"))
     step = gauss_newton_step(model, free, problem, weight, used, y_solver)
     # A solver that ends at its step limit while the polishing step passes optimistix's
     # Cauchy test (no parameter and no used weighted residual moves beyond the
@@ -192,7 +175,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     settled = jnp.all(within_tolerances(step.change, y_solver, options.rtol, options.atol)) & jnp.all(
         residuals_settled | ~used[:, None]
     )
-    status = jnp.where(settled & (solver_status(sol.result) == solver_status("nonlinear_max_steps_reached")), SUCCESSFUL, solver_status(sol.result))
+    status = jnp.where(settled & (result == solver_status("nonlinear_max_steps_reached")), SUCCESSFUL, result)
     return fit_result(
         step.model,
         step.values,
@@ -200,7 +183,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         step.residuals,
         used,
         step.degenerate,
-        iterations=iterations + sol.stats["num_steps"],
+        iterations=iterations,
         converged=(status == SUCCESSFUL) & step.finite,
         status=status,
         solver=options.solver,
@@ -211,6 +194,54 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         robust_converged=robust_ok,
         every_parameter=True,
     )
+
+
+def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, options: FitOptions):
+    """The passes of a robust fit: the robust solves (two when the scale is automatic:
+    the first from the scale of the starting model's residuals, which may be large, the
+    second from the fit's), then the least-squares solve of the observations not
+    flagged as outliers after them. One ``lax.fori_loop`` around one solve, so that the
+    solver is compiled once, not once per pass (a robust fit's program is then about
+    the size of a least-squares one).
+
+    ``raw_weight`` ``(n,)`` the observations' own weights (0: not used), ``weight``
+    those normalised over the observations used. Returns ``(y, iterations, status of
+    the last solve, outliers, robust scale, every robust solve succeeded)``; ``y``
+    ``(M,)`` every parameter, model order.
+    """
+    rho = LOSSES[options.loss]
+    given = raw_weight > 0
+    auto = options.loss_scale is None
+    n_robust = 2 if auto else 1
+    # Residuals are judged weighted (sqrt(w) r, the quantity the loss sees), so a
+    # down-weighted observation is not rejected for being imprecise.
+    sqrt_w = jnp.sqrt(weight)[:, None]
+
+    def one_pass(k, carry):
+        y, iterations, _, outliers, scale, robust_ok = carry
+        robust = k < n_robust
+        # Soft margin c: two robust sigmas unless given.
+        c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(options.loss_scale) ** 2, 1e-30)
+        w = jnp.where(robust, weight, normalised_weights(raw_weight, given & ~outliers))
+        sol, _ = least_squares(model.with_values(y), free, problem, w, options, rho, c2, robust=robust)
+        y = jnp.where(free, sol.value, y)
+        status = solver_status(sol.result)
+        rw = problem.residuals(model.with_values(y)) * sqrt_w
+        new_scale = robust_sigma(rw, given)
+        flagged = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * new_scale)
+        return (
+            y,
+            iterations + sol.stats["num_steps"],
+            status,
+            jnp.where(k == n_robust - 1, flagged, outliers),
+            jnp.where(robust, new_scale, scale),
+            robust_ok & ((status == SUCCESSFUL) | ~robust),
+        )
+
+    y0 = model.values("all")
+    scale = robust_sigma(problem.residuals(model) * sqrt_w, given)
+    carry = (y0, jnp.asarray(0), solver_status("successful"), jnp.zeros(given.shape, bool), scale, jnp.asarray(True))
+    return jax.lax.fori_loop(0, n_robust + 1, one_pass, carry)
 
 
 def within_tolerances(change, reference, rtol: float, atol: float):
