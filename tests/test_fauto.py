@@ -237,6 +237,34 @@ def test_compare_cli_unknown_family_exit_2(capsys):
     assert "unknown family 'nosuch'" in err and "NOSUCH" not in err
 
 
+def test_compare_passes_the_fauto_orders_to_fauto(monkeypatch):
+    """`pointax compare --fauto-order N --fauto-products K`: FAUTO gets both (products
+    off by default), and the family 'fauto' becomes the terms it kept."""
+    import argparse
+    import importlib
+    import types
+
+    from pointax.cli.compare import _fauto_families, add_compare_parser
+
+    fauto_module = importlib.import_module("pointax.analysis.fauto")  # the module, not the function
+
+    parser = argparse.ArgumentParser(prog="pointax")
+    add_compare_parser(parser.add_subparsers(dest="command"))
+    calls = []
+
+    def fake_fauto(obs, **kwargs):
+        calls.append(kwargs)
+        return types.SimpleNamespace(model=types.SimpleNamespace(terms=[types.SimpleNamespace(name=n) for n in ("IA", "HESACE")]))
+
+    monkeypatch.setattr(fauto_module, "fauto", fake_fauto)
+    for argv, order, products in (([], 3, 0), (["--fauto-order", "5", "--fauto-products", "2"], 5, 2)):
+        args = parser.parse_args(["compare", "run.dat", *argv])
+        families = {"basic": "basic", "auto": "fauto"}
+        _fauto_families(families, None, args)
+        assert calls[-1] == {"max_order": order, "max_product_order": products, "form": args.form}
+        assert families == {"basic": "basic", "auto": "IA HESACE"}
+
+
 def _no_tx_run(n=60, seed=4):
     """A simulated alt-az run of the basic terms but TX (0 in the truth)."""
     values = {k: v for k, v in TRUTH.items() if k in BASIC and k != "TX"}

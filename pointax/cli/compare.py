@@ -27,7 +27,8 @@ gpoint`` gpoint's names (``gpoint`` = gpoint's seven, ``ia``, extras); equatoria
 and the second hour-angle harmonics) and TPOINT's equatorial names; X-Y ``basic``,
 ``harmonic``, ``rotation``, ``linearised`` and term names of :mod:`pointax.terms.xy`.
 The family ``fauto`` is the model :func:`pointax.analysis.fauto` builds on the run (the
-mount's physical terms and the harmonics, to order ``--fauto-order``, it keeps); its step
+mount's physical terms and the harmonics, to order ``--fauto-order``, and with
+``--fauto-products N`` the product harmonics to order N, it keeps); its step
 table is printed before the comparison (``"fauto"`` in the JSON). ``--family SPEC`` (repeatable) adds one family whose terms may contain ``;`` (gpoint
 extras such as ``az:sincos:az;el:2;2``).
 
@@ -213,6 +214,14 @@ def add_compare_parser(subparsers) -> argparse.ArgumentParser:
         metavar="N",
         help="the family 'fauto' (TPOINT-style FAUTO on the run): harmonics up to this order (default: %(default)s)",
     )
+    p.add_argument(
+        "--fauto-products",
+        type=int,
+        default=0,
+        metavar="N",
+        help="the family 'fauto': also try two-coordinate product harmonics, both orders up to N, in a last "
+        "stage (alt-az and equatorial; default: %(default)s, none)",
+    )
     p.add_argument("--max-steps", type=int, default=256, help="solver step limit (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--quiet", action="store_true", help="no progress bar (it is drawn only on a terminal)")
@@ -297,7 +306,7 @@ def _fauto_families(families: dict[str, str], obs, args):
         return None
     from ..analysis.fauto import fauto
 
-    built = fauto(obs, max_order=args.fauto_order, form=args.form)
+    built = fauto(obs, max_order=args.fauto_order, max_product_order=args.fauto_products, form=args.form)
     names = " ".join(t.name for t in built.model.terms)
     for label in wanted:
         families[label] = names
