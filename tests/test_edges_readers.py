@@ -13,8 +13,6 @@ refusals without place or cause.
 
 from __future__ import annotations
 
-import json
-import math
 import warnings
 from pathlib import Path
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import pointax as px
-from history_runs import NOISE_ARCSEC, TERMS, TRUTH_ARCSEC, mjd, reference_fit, simulate_run, write_tpoint
+from history_runs import TERMS, TRUTH_ARCSEC, mjd, reference_fit, simulate_run, write_tpoint
 from pointax.analysis.history import (
     compare_with_previous,
     change_sigmas,
@@ -233,7 +233,7 @@ def test_joint_fit_recovers_a_thermal_tf_and_a_drifting_ia(tmp_path):
     from tpoint_numpy import ARCSEC, basis
 
     temps = [0.0, 12.0, 4.0, 20.0, 8.0, 16.0, 2.0, 18.0]
-    runs, data, times = [], [], []
+    runs, data = [], []
     for k, temp in enumerate(temps):
         date = START + datetime.timedelta(days=60 * k)
         coefs = dict(TRUTH_ARCSEC, TF=14.0 + 0.6 * (temp - 10.0), IA=120.0 + 0.05 * (mjd(date) - mjd(START)))

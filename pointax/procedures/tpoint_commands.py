@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core.units import ARCSEC
 from .graphics import cmd_capt, cmd_gc, cmd_graph, cmd_pltz, require_fit
-from .parser import COMMANDS, GRAPHICS_NOT_DRAWN, NOT_IMPLEMENTED, NOTED_SETTINGS, Line, Quoted
+from .parser import COMMANDS, NOT_IMPLEMENTED, NOTED_SETTINGS, Line, Quoted
 from .session import Session, read_run
 
 __all__ = ["COMMAND_FUNCTIONS", "LIGHT_COMMANDS", "DEFAULT_FAUTO_CANDIDATES", "EQUATORIAL_FAUTO_CANDIDATES", "fit_table"]
@@ -332,7 +332,7 @@ def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
     FAUTO CV [NAME ...]: the cross-validated builder (:func:`pointax.build_model`) instead."""
     from ..analysis.fauto import fauto
 
-    run = s.require_run()
+    s.require_run()  # raises when no run is loaded
     rows = np.flatnonzero(s.observations().weight > 0)
     words = [str(a).upper() for a in args]
     if words[:1] == ["CV"]:

@@ -27,7 +27,7 @@ from ..core.rotations import rot_x, rot_y, rot_z
 from ..core.term import Term, angle_pair, param
 from . import _TPOINT_ALTAZ_NAMES
 from .linear import tpoint_azimuth
-from .tpoint_terms import TF, TX
+from .tpoint_terms import TF, TX  # noqa: F401  (in RIGOROUS_TERMS through globals(): TF and TX have one form)
 from .tpoint_special import SPECIAL_ALTAZ_TERMS
 
 __all__ = [*_TPOINT_ALTAZ_NAMES, "RIGOROUS_TERMS"]

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from .linear import LinearTerm, tpoint_azimuth
+from .linear import LinearTerm
 
 __all__ = ["NRX", "NRY", "CRX", "CRY", "FLOP", "TFP", "ANL", "AWL", "CAL", "NPAEL", "TXL", "SPECIAL_ALTAZ_TERMS"]
 
