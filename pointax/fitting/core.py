@@ -108,10 +108,11 @@ def least_squares(
     ``rho`` (with the squared scale ``c2``) makes it a robust fit by rescaling each
     observation's residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to
     ``sum rho``; ``robust`` (a boolean, may be traced) False turns the rescaling off, so
-    that one compiled solve serves robust and least-squares passes. Returns ``(solution, scaled)``: ``solution.value`` holds every
-    parameter (``(M,)``, in model order) and ``scaled(y, None)`` the ``(n, 2)``
-    residuals the loss sees at ``y`` (times the square roots of ``weight``, rescaled by
-    ``rho`` if given), the free entries of ``y`` only taking effect.
+    that one compiled solve serves robust and least-squares passes. Returns
+    ``(solution, scaled)``: ``solution.value`` holds every parameter (``(M,)``, in model
+    order) and ``scaled(y, None)`` the ``(n, 2)`` residuals the loss sees at ``y`` (times
+    the square roots of ``weight``, rescaled by ``rho`` if given and ``robust``), the free
+    entries of ``y`` only taking effect.
     """
     problem = define_problem(model, obs, free)
     y0 = model.values("all")
