@@ -166,6 +166,7 @@ def main() -> dict:
     parser.add_argument("--product-order", type=int, default=None,
                         help="FAUTO's highest product-harmonic order (default: fauto's)")
     parser.add_argument("--start-rule", default=None, help="FAUTO's start_rule (default: fauto's)")
+    parser.add_argument("--collinearity", type=float, default=None, help="FAUTO's collinearity (default: fauto's)")
     parser.add_argument("--only", action="append", default=[], metavar="STEM",
                         help="only the pairs whose run file name contains STEM (repeatable)")
     parser.add_argument("--no-bundled", action="store_true", help="leave out the repository's own runs")
@@ -177,8 +178,8 @@ def main() -> dict:
         pairs += find_pairs(Path(folder), args.azimuth)
     if args.only:
         pairs = [p for p in pairs if any(stem in p[0].name for stem in args.only)]
-    options = {k: v for k, v in (("max_product_order", args.product_order), ("start_rule", args.start_rule))
-               if v is not None}
+    options = {k: v for k, v in (("max_product_order", args.product_order), ("start_rule", args.start_rule),
+                                 ("collinearity", args.collinearity)) if v is not None}
     rows = [one_pair(dat, mod, az, args.order, options) for dat, mod, az in pairs]
     head = (
         f"{'run':<28s} {'FAUTO?':>6s} {'N':>4s} {'N TP':>4s} {'M px':>5s} {'M TP':>5s} {'Sky px':>7s} {'Sky TP':>7s} "
