@@ -29,7 +29,7 @@ from jaxtyping import ArrayLike, Float
 
 from ..core.model import Model
 from ..core.observations import Observations
-from ..core.padding import power_of_two
+from ..core.padding import pad_rows, power_of_two
 from ..core.precision import float64
 from .batch_fast_pass import (
     DEFAULT_STEPS,
@@ -293,14 +293,7 @@ def _pad_sites(tree, size: int):
     hand the leaves to JAX in one ``device_put`` (``jnp.asarray`` would compile a small
     program per new shape). They may share memory with the NumPy arrays: nothing here
     writes to those while the fits that read them run."""
-
-    def pad(x):
-        x = np.asarray(x)
-        if x.shape[0] < size:
-            x = np.concatenate([x, np.repeat(x[:1], size - x.shape[0], axis=0)])
-        return x
-
-    return jax.device_put(jax.tree.map(pad, tree), may_alias=True)
+    return jax.device_put(jax.tree.map(lambda x: pad_rows(x, size), tree), may_alias=True)
 
 
 def _host(x) -> np.ndarray:
