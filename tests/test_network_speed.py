@@ -8,12 +8,12 @@ counts is its own first call."""
 
 from __future__ import annotations
 
-import contextlib
 import io
 
 import jax
 import numpy as np
 import pytest
+from compile_counter import traces
 
 import pointax as px
 from pointax.core.precision import float64
@@ -21,26 +21,7 @@ from pointax.fitting.batch import COMPILING, _chunk_plan, observation_bucket
 from pointax.fitting.progress import progress_bar
 from pointax.terms import tpoint
 
-_TRACE = "/jax/core/compile/jaxpr_trace_duration"
-
-
 _FIT_PROGRAMS = {"site_data", "fixed_steps_fits", "_site_data_and_fits"}
-
-
-@contextlib.contextmanager
-def traces():
-    """The names of the functions JAX traces for ``jit`` inside the block."""
-    seen: list[str] = []
-
-    def listener(event, duration, **kwargs):
-        if event == _TRACE:
-            seen.append(str(kwargs.get("fun_name")))
-
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
-        yield seen
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
 
 
 def _encoder(rng, n):

@@ -9,7 +9,8 @@
 * the Mahalanobis distance against its closed form ``(y - mu)^T (Sigma + C)^-1 (y - mu)``;
 * a site with many observations is moved by less than its sigma, one with few by much
   more; the population of a simulated network is recovered within its sampling error;
-* new data values run the same compiled program.
+* new data values run the same compiled program; a nonlinear fit's program holds one
+  EM and two linearisations of the residuals, whatever its number of steps.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from scipy.optimize import least_squares
 
 import pointax as px
 import tpoint_numpy as ref
+from compile_counter import traces
 
 NAMES = ["IA", "IE", "AN", "AW", "TF"]
 MU = np.array([30.0, -20.0, 10.0, 5.0, 8.0]) * ref.ARCSEC
@@ -272,16 +274,14 @@ def test_full_covariance_needs_more_sites_than_parameters(small_network):
 
 
 def test_no_recompilation_when_data_change(small_network):
-    from pointax.fitting import pooled
-
     batch = px.stack_observations([s[0] for s in small_network])
     px.fit_pooled(_model(), batch, covariance="diagonal")
-    compiled = pooled._pooled_fit._cached._cache_size()
     other = px.stack_observations([_site(n, 500 + k)[0] for k, n in enumerate([3, 4, 8, 60])])
     start = np.full((4, 5), 1e-5)
-    px.fit_pooled(_model(), other, values=start, noise=2 * ref.ARCSEC, k=2.0, covariance="diagonal")
-    px.fit_pooled(_model().set(IA=1e-5), other, groups=["one design"] * 4, covariance="diagonal")
-    assert pooled._pooled_fit._cached._cache_size() == compiled
+    with traces() as seen:
+        px.fit_pooled(_model(), other, values=start, noise=2 * ref.ARCSEC, k=2.0, covariance="diagonal")
+        px.fit_pooled(_model().set(IA=1e-5), other, groups=["one design"] * 4, covariance="diagonal")
+    assert "_pooled_fit" not in seen, seen
 
 
 # --------------------------------------------------------------------------- nonlinear
@@ -335,6 +335,38 @@ def test_nonlinear_map_equals_scipy_least_squares():
     x = least_squares(resid, starts.ravel(), method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
     got = np.asarray(fit.sites.values).ravel()
     np.testing.assert_allclose(got, x, rtol=1e-8, atol=1e-8 * np.abs(x).max())
+
+
+def test_a_nonlinear_fit_compiles_one_em_and_two_linearisations(monkeypatch):
+    """The rounds of a nonlinear pooled fit, the last Gauss-Newton step's included, are
+    one loop: its program holds the start's linearisation and the loop's (with its EM),
+    at any number of steps (copies of them before and after the loop doubled its
+    compiling)."""
+    from pointax.fitting import pooled
+
+    called = {"_linearise": 0, "_em": 0}
+    for name in called:
+        original = getattr(pooled, name)
+
+        def counted(*args, _original=original, _name=name, **kwargs):
+            called[_name] += 1  # inside the compiled fit: runs when it is traced
+            return _original(*args, **kwargs)
+
+        monkeypatch.setattr(pooled, name, counted)
+    from pointax.terms.sun_vector import estimate_zeros
+
+    sites = [_turntable_site(n, 90 + k)[0] for k, n in enumerate([7, 9, 11])]
+    starts = np.array([[0.0, 0.0, 0.0, *estimate_zeros(np.asarray(o.encoder), np.asarray(o.target))] for o in sites])
+    obs = px.stack_observations(sites)
+    for steps in (2, 5):  # a program of its own each (steps is static)
+        called.update(_linearise=0, _em=0)
+        with traces() as seen:
+            fit = px.fit_pooled(
+                px.Turntable("full"), obs, values=starts, unpooled=("alpha0",), covariance="diagonal", steps=steps
+            )
+        assert "_pooled_fit" in seen  # traced here, so the counts are of this program
+        assert called == {"_linearise": 2, "_em": 1}, (steps, called)
+        assert np.all(np.isfinite(np.asarray(fit.sites.values)))
 
 
 # --------------------------------------------------------------------------- command line

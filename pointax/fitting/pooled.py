@@ -481,29 +481,29 @@ def _pooled_fit(model, own, shared, y, p, obs, group, noise, tol, rtol, atol, k,
     data = site_data(model, obs)
     q = _linearise(model, own, shared, y, p, data)
     start = _initial_population(q, group, n_groups, pooled, diagonal, noise)
-    em = lambda q, pop: _em(q, pop, start, group, n_groups, pooled, diagonal, noise_fixed, max_iterations, tol)  # noqa: E731
-    pop = start
-    pop, iterations, em_ok = em(q, pop)
-    post = _posterior(q, pop, group, pooled)
-    if not affine:
-
-        def outer(_, state):
-            y, p, pop, iterations, _ = state
-            q = _linearise(model, own, shared, y, p, data)
-            pop, it, ok = em(q, pop)
-            post = _posterior(q, pop, group, pooled)
-            return y + post.dy, p + post.dp, pop, iterations + it, ok
-
-        y, p, pop, iterations, em_ok = jax.lax.fori_loop(
-            0, steps - 1, outer, (y + post.dy, p + post.dp, pop, iterations, em_ok)
-        )
-        # Two last Gauss-Newton steps with the population fixed: the MAP values for the
-        # population reported, and the convergence test on the second (the first
-        # finishes what the population's last change left, its size the square of
-        # that change times the curvature, above rtol on the example turntables).
-        q = _linearise(model, own, shared, y, p, data)
+    em = lambda q, pop, limit: _em(q, pop, start, group, n_groups, pooled, diagonal, noise_fixed, limit, tol)  # noqa: E731
+    if affine:
+        pop, iterations, em_ok = em(q, start, max_iterations)
         post = _posterior(q, pop, group, pooled)
-        q = _linearise(model, own, shared, y + post.dy, p + post.dp, data)
+    else:
+        # Each of the ``steps`` rounds runs EM on the quadratics at the current values,
+        # steps to the MAP values and linearises there; one round more holds the
+        # population (no EM update) and takes a Gauss-Newton step: the MAP values for
+        # the population reported, and the convergence test on the step after it (the
+        # first finishes what the population's last change left, its size the square of
+        # that change times the curvature, above rtol on the example turntables). One
+        # linearisation and one EM in the loop's body, not copies of them before and
+        # after it: they are most of the program, and so of its compiling.
+        def outer(i, state):
+            q, pop, iterations, ok = state
+            held = i == steps
+            pop, it, em_ok = em(q, pop, jnp.where(held, 0, max_iterations))
+            post = _posterior(q, pop, group, pooled)
+            q = _linearise(model, own, shared, q.y + post.dy, q.p + post.dp, data)
+            return q, pop, iterations + it, jnp.where(held, ok, em_ok)
+
+        state = (q, start, jnp.asarray(0), jnp.asarray(True))
+        q, pop, iterations, em_ok = jax.lax.fori_loop(0, steps + 1, outer, state)
         post = _posterior(q, pop, group, pooled)
     small = jnp.all(within_tolerances(post.dy, q.y + post.dy, rtol, atol) | ~q.active[:, None]) & jnp.all(
         within_tolerances(post.dp, q.p + post.dp, rtol, atol)
