@@ -300,15 +300,20 @@ def _turntable_site(n, seed):
     return px.simulate(truth, enc, noise=px.deg(0.01), seed=seed), truth
 
 
+def _turntable_starts(obs) -> np.ndarray:
+    """Start values of the turntable sites ``obs``: mu0 nu0 omega0 at 0, the encoder
+    zeros from the data (``(S, 5)``, radians)."""
+    from pointax.terms.sun_vector import estimate_zeros
+
+    return np.array([[0.0, 0.0, 0.0, *estimate_zeros(np.asarray(o.encoder), np.asarray(o.target))] for o in obs])
+
+
 def test_nonlinear_map_equals_scipy_least_squares():
     """A sky-form turntable (alpha0 per site): the pooled values are the MAP of the
     population the fit ended at, as scipy finds it on the plain residuals (px.residuals)
     plus the prior's rows."""
-    from pointax.terms.sun_vector import estimate_zeros
-
-    sites = [_turntable_site(n, 70 + k) for k, n in enumerate([6, 8, 12, 20, 40])]
-    obs = [s[0] for s in sites]
-    starts = np.array([[0.0, 0.0, 0.0, *estimate_zeros(np.asarray(o.encoder), np.asarray(o.target))] for o in obs])
+    obs = [_turntable_site(n, 70 + k)[0] for k, n in enumerate([6, 8, 12, 20, 40])]
+    starts = _turntable_starts(obs)
     model = px.Turntable("full")
     fit = px.fit_pooled(
         model, px.stack_observations(obs), values=starts, unpooled=("alpha0",), covariance="diagonal", tol=1e-12
@@ -353,10 +358,8 @@ def test_a_nonlinear_fit_compiles_one_em_and_two_linearisations(monkeypatch):
             return _original(*args, **kwargs)
 
         monkeypatch.setattr(pooled, name, counted)
-    from pointax.terms.sun_vector import estimate_zeros
-
     sites = [_turntable_site(n, 90 + k)[0] for k, n in enumerate([7, 9, 11])]
-    starts = np.array([[0.0, 0.0, 0.0, *estimate_zeros(np.asarray(o.encoder), np.asarray(o.target))] for o in sites])
+    starts = _turntable_starts(sites)
     obs = px.stack_observations(sites)
     for steps in (2, 5):  # a program of its own each (steps is static)
         called.update(_linearise=0, _em=0)
