@@ -15,7 +15,7 @@ term count + 2 terms, and a leave-one-out RMS no worse than that of TPOINT's ter
 Writes benchmarks/results/fauto.json.
 
     .venv/bin/python benchmarks/fauto.py [--pairs FOLDER ...] [--azimuth S-E] [--order 8]
-        [--product-order 8] [--start-rule popn|significance|never] [--only STEM] [--out PATH]
+        [--product-order 8] [--start-rule popn|significance|never] [--no-exchanges] [--only STEM] [--out PATH]
 """
 
 from __future__ import annotations
@@ -145,6 +145,7 @@ def one_pair(dat: Path, mod: Path, azimuth: str, order: int | None, options: dic
         "pointax_start_terms_dropped": [s.term for s in built.steps if s.action == "drop" and s.term not in built.added
                                         and s.term in built.steps[0].term.split()],
         "pointax_steps": [f"{s.stage} {s.action} {s.term}" for s in built.steps[1:]],
+        "pointax_step_table": [s.to_dict() for s in built.steps],
         "tpoint_added": [t.name for t in tp.terms if t.parallel],
         "fauto_seconds": seconds,
     }
@@ -167,6 +168,7 @@ def main() -> dict:
                         help="FAUTO's highest product-harmonic order (default: fauto's)")
     parser.add_argument("--start-rule", default=None, help="FAUTO's start_rule (default: fauto's)")
     parser.add_argument("--collinearity", type=float, default=None, help="FAUTO's collinearity (default: fauto's)")
+    parser.add_argument("--no-exchanges", action="store_true", help="FAUTO without its exchange steps (exchanges=False)")
     parser.add_argument("--only", action="append", default=[], metavar="STEM",
                         help="only the pairs whose run file name contains STEM (repeatable)")
     parser.add_argument("--no-bundled", action="store_true", help="leave out the repository's own runs")
@@ -180,6 +182,8 @@ def main() -> dict:
         pairs = [p for p in pairs if any(stem in p[0].name for stem in args.only)]
     options = {k: v for k, v in (("max_product_order", args.product_order), ("start_rule", args.start_rule),
                                  ("collinearity", args.collinearity)) if v is not None}
+    if args.no_exchanges:
+        options["exchanges"] = False
     rows = [one_pair(dat, mod, az, args.order, options) for dat, mod, az in pairs]
     head = (
         f"{'run':<28s} {'FAUTO?':>6s} {'N':>4s} {'N TP':>4s} {'M px':>5s} {'M TP':>5s} {'Sky px':>7s} {'Sky TP':>7s} "
@@ -205,7 +209,8 @@ def main() -> dict:
     order = args.order if args.order is not None else defaults["max_order"].default
     out = {"order": order,
            "product_order": options.get("max_product_order", defaults["max_product_order"].default),
-           "start_rule": options.get("start_rule", defaults["start_rule"].default), "runs": rows}
+           "start_rule": options.get("start_rule", defaults["start_rule"].default),
+           "exchanges": options.get("exchanges", defaults["exchanges"].default), "runs": rows}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     # Paths of --pairs runs outside the repository are kept as given (their source is the user's).
     Path(args.out).write_text(json.dumps(out, indent=2) + "\n")

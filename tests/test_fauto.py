@@ -11,7 +11,10 @@
   SD (NumPy's least squares of both models), and no other;
 * a planted two-coordinate product harmonic is found by the product stage (values and
   Sky RMS: NumPy's least squares), and the vectorised screen gives the per-candidate
-  compiled screen's figures.
+  compiled screen's figures;
+* an exchange step swaps a stand-in (HECE2, tried first) for the planted term (HECE3)
+  because Popn SD falls (NumPy's least squares of both models), and never swaps a term
+  for its twin on the sky (HASA2 / HSSA2CE: NumPy's column correlation).
 """
 
 from __future__ import annotations
@@ -370,3 +373,46 @@ def test_product_candidates():
     # Every name builds (TPOINT's generic grammar).
     assert len(tpoint(list(two))) == len(two)
     assert len(tpoint(list(product_candidates("equatorial", 2)), mount="equatorial", latitude=0.5)) == 48
+
+
+def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz):
+    """The order-2 harmonics tried before the order-3 ones (as further terms): HECE2
+    comes in for the planted HECE3, and the forward search alone leaves it there. The
+    exchange step swaps HECE2 for HECE3 because Popn SD falls. Reference: NumPy's least
+    squares of both models."""
+    obs, _ = altaz
+    kw = dict(further=harmonic_candidates("altaz", 2), harmonics=harmonic_candidates("altaz", 3))
+    forward = fauto(obs, exchanges=False, **kw)
+    assert forward.added == ("HASA2", "HECE2")
+    f = fauto(obs, **kw)
+    assert f.added == ("HASA2", "HECE3")
+    assert [(s.stage, s.action, s.term) for s in f.steps if s.stage == "exchange"] == [
+        ("exchange", "drop", "HECE2"), ("exchange", "add", "HECE3")]
+    _, popn_stand_in = _numpy_z_popn(list(forward.names), obs)
+    z, popn = _numpy_z_popn(list(f.names), obs)
+    assert popn < popn_stand_in
+    assert abs(f.popn_sd - popn) < 1e-6 * ARCSEC and abs(forward.popn_sd - popn_stand_in) < 1e-6 * ARCSEC
+    assert z[list(f.names).index("HECE3")] >= 2
+    assert "then exchanges" in f.rules and "then exchanges" not in forward.rules
+
+
+def test_an_exchange_never_swaps_a_term_for_one_it_cannot_be_told_apart_from(altaz, monkeypatch):
+    """HSSA2CE (cross-elevation ~ sin 2A' cos E) is HASA2 (dA ~ sin 2A') on the sky; the
+    rigorous forms differ in the last digits, enough for a swap to lower Popn SD by
+    0.00002". FAUTO keeps HASA2 and makes no exchange; with the twin rule switched off
+    it swaps them (so the rule is what holds). Reference: NumPy's correlation of the two
+    columns (central differences of the residuals)."""
+    import sys
+
+    obs, _ = altaz
+    names = ["HASA2", "HSSA2CE"]
+    _, jac = _numpy_design(px.AltAz(tpoint(names)), names, obs)
+    a = jac / np.linalg.norm(jac, axis=0)
+    assert abs(a[:, 0] @ a[:, 1]) > 0.9999
+    kw = dict(further=("HASA2", "HECE3"), harmonics=("HSSA2CE", "HESE2"))
+    f = fauto(obs, **kw)
+    assert f.added == ("HASA2", "HECE3") and not [s for s in f.steps if s.stage == "exchange"]
+    assert ("HSSA2CE", "HASA2") in [(c, t) for c, t, _ in f.mimics]
+    monkeypatch.setattr(sys.modules["pointax.analysis.fauto"]._Search, "twins", lambda *args: set())
+    swapped = fauto(obs, **kw)
+    assert ("exchange", "add", "HSSA2CE") in [(s.stage, s.action, s.term) for s in swapped.steps]

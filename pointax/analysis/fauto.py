@@ -28,7 +28,16 @@ purpose, not its numerical rule, so the thresholds here are pointax's choice):
   lets a low-order harmonic take the place of a higher-order one the data hold: on a
   simulated run with HECE3, HECE2 came in at order 2 and HECE3 was then left out.)
   With ``max_product_order``, a last stage adds the two-coordinate products
-  (``HSCA5CE8``; :func:`product_candidates`), the single harmonics still open.
+  (``HSCA5CE8``; :func:`product_candidates`), the single harmonics still open;
+* **exchange** (``exchanges=True``, default): when no candidate is eligible, each
+  added term is left out in turn and the open candidates screened on the refit
+  without it; the swap with the lowest Popn SD, if it is below the model's, is made
+  (the term left out is not tried again; never for a candidate it cannot be told
+  apart from, ``|partial r| > collinearity``, such as ``HSSA2CE`` for ``HASA2``), terms
+  that lost significance dropped, and additions tried again; until no swap lowers
+  Popn SD. A greedy search adds one term at a time and can keep an early term that a
+  later one makes second best; on the 44-star Rubin AuxTel run of
+  ``benchmarks/fauto_notes.md`` the swaps take Sky RMS from 8.75" to 8.18".
 
 The fits are :class:`pointax.analysis.building_fits.Builder`'s (converged Gauss-Newton
 fits on masks of terms: trying a term compiles nothing); candidates are screened by one
@@ -132,7 +141,7 @@ class FautoStep:
     """One step of :func:`fauto`.
 
     Attributes:
-        stage: 'start', 'physical' or 'harmonic'.
+        stage: 'start', 'physical', 'harmonic', 'product' or 'exchange'.
         action: 'start', 'add' or 'drop'.
         term: the term added or dropped (for 'start' the start model's terms).
         n_terms: fitted parameters after the step (M).
@@ -382,6 +391,29 @@ class _Search:
             got[t] = (float(z[k]), _popn_sd(float(sky[k]), self.n, m_new))
         return got
 
+    def twins(self, state: FitState, ts: Sequence[int], other: int, jac: np.ndarray) -> set[int]:
+        """The terms of ``ts`` whose columns, made orthogonal to ``state``'s model, have a
+        correlation above the collinearity bar with a column of ``other`` (so made too):
+        in a fit of the model with both, they could not be told apart (the parameter
+        correlation is minus this partial correlation)."""
+        free = np.flatnonzero(self.b.mask(state.active))
+        q = np.linalg.qr(jac[:, free])[0] if len(free) else np.zeros((len(jac), 0))
+
+        def unit_perp(cols):
+            c = jac[:, cols]
+            c = c - q @ (q.T @ c)
+            norm = np.linalg.norm(c, axis=0)
+            return c / np.where(norm > 0, norm, 1.0), norm > 0
+
+        o, o_ok = unit_perp(self.b.columns[other])
+        out = set()
+        for t in ts:
+            c, c_ok = unit_perp(self.b.columns[t])
+            r = np.abs(c.T @ o)[np.ix_(c_ok, o_ok)]
+            if r.size and r.max() > self.collinearity:
+                out.add(t)
+        return out
+
     def screen(self, state: FitState, t: int, jac: np.ndarray) -> tuple[float, float] | None:
         """``(|value/sigma|, Popn SD)`` with ``t`` added (one linearised step), or None when
         it cannot be determined or mimics a term in the model."""
@@ -441,6 +473,7 @@ def fauto(
     outlier_sigmas: float = 3.0,
     correlated: float = 0.95,
     form: str = "rigorous",
+    exchanges: bool = True,
 ) -> Fauto:
     """TPOINT-style automatic model building (FAUTO; the module docstring gives the rule).
 
@@ -475,6 +508,9 @@ def fauto(
             reported as weak outlier candidates (default 3).
         correlated: fitted pairs with ``|r|`` at least this are reported (default 0.95).
         form: 'rigorous' (default) or 'linear' TPOINT term forms.
+        exchanges: after the last stage, swap an added term for an open candidate
+            while a swap lowers Popn SD (then add again), as the module docstring says
+            (default True; False: the forward search alone).
 
     Returns:
         :class:`Fauto`; ``print(result.report())``; ``result.write_model(path)``.
@@ -553,30 +589,71 @@ def fauto(
             state = drop_weak(state, stage)
         return state
 
-    state = drop_start(drop_weak(state, "start"), "start")
-    open_ids: list[int] = []
-    for stage, stage_names in stages:
-        open_ids += [index[n] for n in stage_names if builder.columns.get(index[n])]
-        while True:
-            jac = search.jacobian(state)
-            current = search.popn(state)
-            best = None
-            trying = [t for t in open_ids if t not in state.active and t not in barred]
-            screened = search.screen_all(state, trying, jac)
-            for t in trying:
-                got = screened[t]
-                if got is None or got[0] < significance or not got[1] < current:
-                    continue
-                if best is None or got[1] < best[1]:
-                    best = (t, got[1])
-            if best is None:
-                break
+    def best_addition(state: FitState, bar: float, twin_of: int | None = None) -> tuple[int, float] | None:
+        """The open candidate (not barred; not ``twin_of`` nor a term it cannot be told
+        apart from, :meth:`_Search.twins`) whose addition to ``state`` gives the lowest
+        Popn SD below ``bar`` at ``|value / sigma| >= significance``, with that Popn SD
+        (linearised), or None."""
+        trying = [t for t in open_ids if t not in state.active and t not in barred]
+        jac = search.jacobian(state)
+        if twin_of is not None:
+            trying = [t for t in trying if t != twin_of]
+            trying = [t for t in trying if t not in search.twins(state, trying, twin_of, jac)]
+        screened = search.screen_all(state, trying, jac)
+        best = None
+        for t in trying:
+            got = screened[t]
+            if got is None or got[0] < significance or not got[1] < bar:
+                continue
+            if best is None or got[1] < best[1]:
+                best = (t, got[1])
+        return best
+
+    def forward(state: FitState, stage: str) -> FitState:
+        """Add the best candidate, then drop what lost significance, while one lowers Popn SD."""
+        while (best := best_addition(state, search.popn(state))) is not None:
             state = builder.state(state.active | {best[0]}, state.y)
             steps.append(FautoStep(stage, "add", names[best[0]], state.n_params, state.sky_rms, search.popn(state),
                                    builder.significance(state, best[0])))
             state = drop_start(drop_weak(state, stage), stage)
+        return state
+
+    def exchange(state: FitState) -> FitState | None:
+        """The swap of an added term for an open candidate that lowers Popn SD most
+        (each added term left out in turn, the candidates screened on the refit without
+        it; never a candidate the left-out term cannot be told apart from), the
+        swapped-out term barred; None when no swap lowers Popn SD."""
+        current = search.popn(state)
+        mimics = dict(search.mimics)  # the screens of the reduced models report no mimics
+        best = None  # (popn, out, reduced, candidate)
+        for out in sorted(state.active - kept):
+            reduced = builder.state(state.active - {out}, state.y)
+            got = best_addition(reduced, current if best is None else best[0], twin_of=out)
+            if got is not None:
+                best = (got[1], out, reduced, got[0])
+        search.mimics = mimics
+        if best is None:
+            return None
+        _, out, reduced, t = best
+        trial = builder.state(reduced.active | {t}, reduced.y)
+        if not search.popn(trial) < current:
+            return None
+        barred.add(out)
+        steps.append(FautoStep("exchange", "drop", names[out], reduced.n_params, reduced.sky_rms, search.popn(reduced),
+                               builder.significance(state, out)))
+        steps.append(FautoStep("exchange", "add", names[t], trial.n_params, trial.sky_rms, search.popn(trial),
+                               builder.significance(trial, t)))
+        return drop_start(drop_weak(trial, "exchange"), "exchange")
+
+    state = drop_start(drop_weak(state, "start"), "start")
+    open_ids: list[int] = []
+    for stage, stage_names in stages:
+        open_ids += [index[n] for n in stage_names if builder.columns.get(index[n])]
+        state = forward(state, stage)
+    while exchanges and (swapped := exchange(state)) is not None:
+        state = forward(swapped, "exchange")
     result = _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
-                     significance, collinearity, start_rule, max_order, max_product_order)
+                     significance, collinearity, start_rule, max_order, max_product_order, exchanges)
     return dataclasses.replace(result, outliers=tuple((int(in_use[i]), r) for i, r in result.outliers))
 
 
@@ -588,7 +665,7 @@ _START_RULES = {
 
 
 def _result(builder, superset, start_model, state, steps, search, n_start, kept, outlier_sigmas, correlated,
-            significance, collinearity, start_rule, max_order, max_product_order) -> Fauto:
+            significance, collinearity, start_rule, max_order, max_product_order, exchanges) -> Fauto:
     names = search.names
     final = [i for i in range(len(superset.terms)) if i in state.active or (i < n_start and not builder.columns.get(i))]
     fitted = superset.with_values(jax.device_put(state.y))
@@ -611,7 +688,8 @@ def _result(builder, superset, start_model, state, steps, search, n_start, kept,
         f"add: |value/sigma| >= {significance:g} and Popn SD falls, no |r| > {collinearity:g} with a term in; "
         f"drop: |value/sigma| < {significance:g}{_START_RULES[start_rule]}; "
         f"harmonics to order {max_order}"
-        f"{f', products to order {max_product_order}' if max_product_order else ''}; pointax's rule"
+        f"{f', products to order {max_product_order}' if max_product_order else ''}"
+        f"{'; then exchanges while Popn SD falls' if exchanges else ''}; pointax's rule"
     )
     return Fauto(
         model=model,
