@@ -82,9 +82,8 @@ def compiled_program(fn, static: Model, obs: Observations):
     """``f(arrays, *args) = fn(eqx.combine(arrays, static), obs, *args)``, compiled. The
     model's arrays (its parameters) are an argument, so the program serves every set of
     terms and every build of the same model (``static``: its structure) on the same
-    observations; the observations are compiled in as constants (XLA folds what depends
-    on them alone: :func:`_linearise` of the 48-star test case's superset compiled in
-    0.6 s against 0.9 s with them an argument)."""
+    observations; the observations are compiled in as constants: XLA folds what depends
+    on them alone, and the program compiles quicker (``benchmarks/fauto_notes.md``)."""
     leaves, treedef = jax.tree.flatten(obs)
     key = (fn, static, treedef, tuple((x.shape, x.dtype.str, np.asarray(x).tobytes()) for x in leaves))
     program = _PROGRAMS.get(key)

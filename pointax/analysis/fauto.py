@@ -36,8 +36,7 @@ purpose, not its numerical rule, so the thresholds here are pointax's choice):
   apart from, ``|partial r| > collinearity``, such as ``HSSA2CE`` for ``HASA2``), terms
   that lost significance dropped, and additions tried again; until no swap lowers
   Popn SD. A greedy search adds one term at a time and can keep an early term that a
-  later one makes second best; on the 44-star Rubin AuxTel run of
-  ``benchmarks/fauto_notes.md`` the swaps take Sky RMS from 8.75" to 8.18".
+  later one makes second best (measurements: ``benchmarks/fauto_notes.md``).
 
 The fits are :class:`pointax.analysis.building_fits.Builder`'s (converged Gauss-Newton
 fits on masks of terms: trying a term compiles nothing); candidates are screened by one

@@ -166,7 +166,7 @@ def _scaled(t, column):
     inf), so each column would be computed from every column's arrays. Written with no constant (the zero is ``t``'s own,
     the test ``t``'s conversion to bool): ``jax.linearize`` stores each constant it meets
     as an array, which the batched fit carried from step to step and XLA could no longer
-    fold away (``benchmarks/batch_fit_notes.md``, change 9)."""
+    fold away (``benchmarks/batch_fit_notes.md``)."""
     return jnp.where(t.astype(bool), t * column, t)
 
 
