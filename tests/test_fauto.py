@@ -375,17 +375,27 @@ def test_product_candidates():
     assert len(tpoint(list(product_candidates("equatorial", 2)), mount="equatorial", latitude=0.5)) == 48
 
 
-def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz):
+def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz, monkeypatch):
     """The order-2 harmonics tried before the order-3 ones (as further terms): HECE2
     comes in for the planted HECE3, and the forward search alone leaves it there. The
     exchange step swaps HECE2 for HECE3 because Popn SD falls. Reference: NumPy's least
-    squares of both models."""
+    squares of both models. The candidates are screened without a refit per term left
+    out: the exchanges refit only the swap made (the model without HECE2, then with
+    HECE3) and the start-term check after it."""
+    import sys
+
     obs, _ = altaz
+    builder = sys.modules["pointax.analysis.fauto"].Builder
+    refits = []
+    refit = builder.state
+    monkeypatch.setattr(builder, "state", lambda self, active, y0: refits.append(active) or refit(self, active, y0))
     kw = dict(further=harmonic_candidates("altaz", 2), harmonics=harmonic_candidates("altaz", 3))
     forward = fauto(obs, exchanges=False, **kw)
     assert forward.added == ("HASA2", "HECE2")
+    n_forward = len(refits)
     f = fauto(obs, **kw)
     assert f.added == ("HASA2", "HECE3")
+    assert len(refits) - 2 * n_forward == 3
     assert [(s.stage, s.action, s.term) for s in f.steps if s.stage == "exchange"] == [
         ("exchange", "drop", "HECE2"), ("exchange", "add", "HECE3")]
     _, popn_stand_in = _numpy_z_popn(list(forward.names), obs)

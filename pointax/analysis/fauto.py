@@ -30,8 +30,9 @@ purpose, not its numerical rule, so the thresholds here are pointax's choice):
   With ``max_product_order``, a last stage adds the two-coordinate products
   (``HSCA5CE8``; :func:`product_candidates`), the single harmonics still open;
 * **exchange** (``exchanges=True``, default): when no candidate is eligible, each
-  added term is left out in turn and the open candidates screened on the refit
-  without it; the swap with the lowest Popn SD, if it is below the model's, is made
+  added term is left out in turn and the open candidates screened on the model
+  without it (linearised at the model's fit: no refit per term); the swap with the
+  lowest Popn SD is refitted and made if its Popn SD is below the model's
   (the term left out is not tried again; never for a candidate it cannot be told
   apart from, ``|partial r| > collinearity``, such as ``HSSA2CE`` for ``HASA2``), terms
   that lost significance dropped, and additions tried again; until no swap lowers
@@ -299,6 +300,20 @@ def _correlations(jac: np.ndarray, cols: Sequence[int]) -> np.ndarray | None:
     if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1 + 1e-6:
         return None
     return np.clip(r, -1.0, 1.0)
+
+
+def _without(state: FitState, term: int, columns: Sequence[int]) -> FitState:
+    """``state`` without ``term`` (its parameters ``columns`` set to 0), linearised at
+    ``state``'s fit rather than refitted: the origin's residuals move by the Jacobian
+    there times the values taken out. What an exchange screens candidates from: one
+    refit per term in the model would be a full Jacobian each Gauss-Newton step."""
+    jac, r, y = (np.asarray(a) for a in state.origin)
+    cols = list(columns)
+    shift = np.einsum("bkc,bc->bk", jac[:, :, cols], y[:, cols]).reshape(r.shape)
+    y = y.copy()
+    y[:, cols] = 0.0
+    return dataclasses.replace(state, active=state.active - {term}, y=y[0], sky_rms=math.nan,
+                               n_params=state.n_params - len(cols), origin=jax.device_put((jac, r - shift, y)))
 
 
 class _Search:
@@ -588,13 +603,15 @@ def fauto(
             state = drop_weak(state, stage)
         return state
 
-    def best_addition(state: FitState, bar: float, twin_of: int | None = None) -> tuple[int, float] | None:
+    def best_addition(state: FitState, bar: float, twin_of: int | None = None,
+                      jac: np.ndarray | None = None) -> tuple[int, float] | None:
         """The open candidate (not barred; not ``twin_of`` nor a term it cannot be told
         apart from, :meth:`_Search.twins`) whose addition to ``state`` gives the lowest
         Popn SD below ``bar`` at ``|value / sigma| >= significance``, with that Popn SD
-        (linearised), or None."""
+        (linearised), or None. ``jac``: the Jacobian to screen with (default: at
+        ``state``'s values)."""
         trying = [t for t in open_ids if t not in state.active and t not in barred]
-        jac = search.jacobian(state)
+        jac = search.jacobian(state) if jac is None else jac
         if twin_of is not None:
             trying = [t for t in trying if t != twin_of]
             trying = [t for t in trying if t not in search.twins(state, trying, twin_of, jac)]
@@ -619,21 +636,24 @@ def fauto(
 
     def exchange(state: FitState) -> FitState | None:
         """The swap of an added term for an open candidate that lowers Popn SD most
-        (each added term left out in turn, the candidates screened on the refit without
-        it; never a candidate the left-out term cannot be told apart from), the
-        swapped-out term barred; None when no swap lowers Popn SD."""
+        (each added term left out in turn, the candidates screened on the model without
+        it, linearised at ``state``'s fit; never a candidate the left-out term cannot be
+        told apart from), the swapped-out term barred; None when no swap lowers Popn SD
+        in the refits."""
         current = search.popn(state)
         mimics = dict(search.mimics)  # the screens of the reduced models report no mimics
-        best = None  # (popn, out, reduced, candidate)
+        jac = search.jacobian(state)
+        best = None  # (popn, out, candidate)
         for out in sorted(state.active - kept):
-            reduced = builder.state(state.active - {out}, state.y)
-            got = best_addition(reduced, current if best is None else best[0], twin_of=out)
+            reduced = _without(state, out, builder.columns[out])
+            got = best_addition(reduced, current if best is None else best[0], twin_of=out, jac=jac)
             if got is not None:
-                best = (got[1], out, reduced, got[0])
+                best = (got[1], out, got[0])
         search.mimics = mimics
         if best is None:
             return None
-        _, out, reduced, t = best
+        _, out, t = best
+        reduced = builder.state(state.active - {out}, state.y)
         trial = builder.state(reduced.active | {t}, reduced.y)
         if not search.popn(trial) < current:
             return None
