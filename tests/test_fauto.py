@@ -375,13 +375,18 @@ def test_product_candidates():
     assert len(tpoint(list(product_candidates("equatorial", 2)), mount="equatorial", latitude=0.5)) == 48
 
 
+# Order-2 harmonics tried first (as further terms), then order 3 and HSSA2CE: one
+# superset, so the exchange tests below share its compiled programs.
+_EXCHANGE_TRIAL = dict(further=harmonic_candidates("altaz", 2), harmonics=harmonic_candidates("altaz", 3) + ("HSSA2CE",))
+
+
 def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz, monkeypatch):
-    """The order-2 harmonics tried before the order-3 ones (as further terms): HECE2
-    comes in for the planted HECE3, and the forward search alone leaves it there. The
-    exchange step swaps HECE2 for HECE3 because Popn SD falls. Reference: NumPy's least
-    squares of both models. The candidates are screened without a refit per term left
-    out: the exchanges refit only the swap made (the model without HECE2, then with
-    HECE3) and the start-term check after it."""
+    """The order-2 harmonics tried before the order-3 ones: HECE2 comes in for the
+    planted HECE3, and the forward search alone leaves it there. The exchange step swaps
+    HECE2 for HECE3 because Popn SD falls. Reference: NumPy's least squares of both
+    models. The candidates are screened without a refit per term left out: the
+    exchanges refit only the swap made (the model without HECE2, then with HECE3) and
+    the start-term check after it."""
     import sys
 
     obs, _ = altaz
@@ -389,11 +394,10 @@ def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz, monke
     refits = []
     refit = builder.state
     monkeypatch.setattr(builder, "state", lambda self, active, y0: refits.append(active) or refit(self, active, y0))
-    kw = dict(further=harmonic_candidates("altaz", 2), harmonics=harmonic_candidates("altaz", 3))
-    forward = fauto(obs, exchanges=False, **kw)
+    forward = fauto(obs, exchanges=False, **_EXCHANGE_TRIAL)
     assert forward.added == ("HASA2", "HECE2")
     n_forward = len(refits)
-    f = fauto(obs, **kw)
+    f = fauto(obs, **_EXCHANGE_TRIAL)
     assert f.added == ("HASA2", "HECE3")
     assert len(refits) - 2 * n_forward == 3
     assert [(s.stage, s.action, s.term) for s in f.steps if s.stage == "exchange"] == [
@@ -409,9 +413,9 @@ def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz, monke
 def test_an_exchange_never_swaps_a_term_for_one_it_cannot_be_told_apart_from(altaz, monkeypatch):
     """HSSA2CE (cross-elevation ~ sin 2A' cos E) is HASA2 (dA ~ sin 2A') on the sky; the
     rigorous forms differ in the last digits, enough for a swap to lower Popn SD by
-    0.00002". FAUTO keeps HASA2 and makes no exchange; with the twin rule switched off
-    it swaps them (so the rule is what holds). Reference: NumPy's correlation of the two
-    columns (central differences of the residuals)."""
+    0.00002". FAUTO keeps HASA2 and makes no such exchange; with the twin rule switched
+    off it swaps them (so the rule is what holds). Reference: NumPy's correlation of the
+    two columns (central differences of the residuals)."""
     import sys
 
     obs, _ = altaz
@@ -419,10 +423,11 @@ def test_an_exchange_never_swaps_a_term_for_one_it_cannot_be_told_apart_from(alt
     _, jac = _numpy_design(px.AltAz(tpoint(names)), names, obs)
     a = jac / np.linalg.norm(jac, axis=0)
     assert abs(a[:, 0] @ a[:, 1]) > 0.9999
-    kw = dict(further=("HASA2", "HECE3"), harmonics=("HSSA2CE", "HESE2"))
-    f = fauto(obs, **kw)
-    assert f.added == ("HASA2", "HECE3") and not [s for s in f.steps if s.stage == "exchange"]
+    f = fauto(obs, **_EXCHANGE_TRIAL)
+    assert f.added == ("HASA2", "HECE3")
+    assert "HSSA2CE" not in [s.term for s in f.steps]
     assert ("HSSA2CE", "HASA2") in [(c, t) for c, t, _ in f.mimics]
     monkeypatch.setattr(sys.modules["pointax.analysis.fauto"]._Search, "twins", lambda *args: set())
-    swapped = fauto(obs, **kw)
+    swapped = fauto(obs, **_EXCHANGE_TRIAL)
     assert ("exchange", "add", "HSSA2CE") in [(s.stage, s.action, s.term) for s in swapped.steps]
+    assert swapped.added == ("HECE3", "HSSA2CE")
