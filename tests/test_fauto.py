@@ -14,7 +14,8 @@
   compiled screen's figures;
 * an exchange step swaps a stand-in (HECE2, tried first) for the planted term (HECE3)
   because Popn SD falls (NumPy's least squares of both models), and never swaps a term
-  for its twin on the sky (HASA2 / HSSA2CE: NumPy's column correlation).
+  for its twin on the sky (HASA2 / HSSA2CE: NumPy's column correlation);
+* a state's Jacobian is computed once, however often its screens ask for it.
 """
 
 from __future__ import annotations
@@ -431,3 +432,34 @@ def test_an_exchange_never_swaps_a_term_for_one_it_cannot_be_told_apart_from(alt
     swapped = fauto(obs, **_EXCHANGE_TRIAL)
     assert ("exchange", "add", "HSSA2CE") in [(s.stage, s.action, s.term) for s in swapped.steps]
     assert swapped.added == ("HECE3", "HSSA2CE")
+
+
+def test_each_state_is_linearised_once_for_its_screens(altaz, monkeypatch):
+    """The forward search's last screen, the exchange after it and the final report ask
+    for the same state's Jacobian: it is computed once per state, not once per ask."""
+    import sys
+
+    obs, _ = altaz
+    module = sys.modules["pointax.analysis.fauto"]
+    asked, computed, inside = [], [], []
+    jacobian, linearise = module._Search.jacobian, module.Builder.linearise
+
+    def asking(self, state):
+        asked.append(state)
+        inside.append(True)
+        try:
+            return jacobian(self, state)
+        finally:
+            inside.pop()
+
+    def counted(self, y):
+        if inside:
+            computed.append(1)
+        return linearise(self, y)
+
+    monkeypatch.setattr(module._Search, "jacobian", asking)
+    monkeypatch.setattr(module.Builder, "linearise", counted)
+    f = fauto(obs, **_EXCHANGE_TRIAL)
+    assert [s.stage for s in f.steps].count("exchange") == 2
+    distinct = len({id(s) for s in asked})
+    assert len(asked) > distinct and len(computed) == distinct

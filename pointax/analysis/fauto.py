@@ -322,13 +322,19 @@ class _Search:
     def __init__(self, builder: Builder, params, names: list[str], n_obs: int, collinearity: float):
         self.b, self.params, self.names, self.n, self.collinearity = builder, params, names, n_obs, collinearity
         self.mimics: dict[str, tuple[str, str, float]] = {}
+        self._jacobian: tuple[FitState, np.ndarray] | None = None
 
     def popn(self, state: FitState) -> float:
         return _popn_sd(state.sky_rms, self.n, state.n_params)
 
     def jacobian(self, state: FitState) -> np.ndarray:
-        rows = np.repeat(self.b.scheme.fit_rows, 2)
-        return self.b.linearise(state.y)[1][rows]
+        """The fitted rows' Jacobian at ``state``'s values; the last state's is kept, as
+        the forward search's last screen, the exchange after it and the final report
+        all ask for the same state's."""
+        if self._jacobian is None or self._jacobian[0] is not state:
+            rows = np.repeat(self.b.scheme.fit_rows, 2)
+            self._jacobian = (state, self.b.linearise(state.y)[1][rows])
+        return self._jacobian[1]
 
     def screen_all(self, state: FitState, ts: Sequence[int], jac: np.ndarray) -> dict[int, tuple[float, float] | None]:
         """:meth:`screen` of every candidate of ``ts`` (in order: the first mimic seen is
