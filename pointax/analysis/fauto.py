@@ -312,8 +312,11 @@ def _without(state: FitState, term: int, columns: Sequence[int]) -> FitState:
     shift = np.einsum("bkc,bc->bk", jac[:, :, cols], y[:, cols]).reshape(r.shape)
     y = y.copy()
     y[:, cols] = 0.0
-    return dataclasses.replace(state, active=state.active - {term}, y=y[0], sky_rms=math.nan,
-                               n_params=state.n_params - len(cols), origin=jax.device_put((jac, r - shift, y)))
+    # The figures of a fit it is not: NaN, so that nothing reads the full model's as its own.
+    return dataclasses.replace(state, active=state.active - {term}, y=y[0], r=np.full_like(state.r, math.nan),
+                               sigmas=np.full_like(state.sigmas, math.nan), rms_in=math.nan, rms_out=math.nan,
+                               sky_rms=math.nan, n_params=state.n_params - len(cols),
+                               origin=jax.device_put((jac, r - shift, y)))
 
 
 class _Search:
