@@ -364,6 +364,7 @@ class Model(eqx.Module):
         d = self._apply("base_rotation", angles, d)
         return d, angles
 
+    @float64
     def mount_direction(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "3"]:
         """Pointing direction in the *mount* frame for one observation's raw encoder
         angles (radians) and, for a model that reads them, its auxiliary ``readings``
@@ -377,12 +378,14 @@ class Model(eqx.Module):
         chain_angles = self.mount.angles_of(d, near=angles)
         return self.mount.direction(self.sky_position(chain_angles))
 
+    @float64
     def sky_angles(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "2"]:
         """Where the mount points, as angles in the mount's convention (one observation;
         ``readings`` as in :meth:`mount_direction`)."""
         encoder = jnp.asarray(encoder)
         return self.mount.angles_of(self.mount_direction(encoder, readings), near=self.mount.axis_angles(encoder))
 
+    @float64
     def direction(self, encoder: Float[Array, "2"], readings=None) -> Float[Array, "3"]:
         """Pointing direction (ENU unit vector) for one observation's raw encoder angles
         (``readings`` as in :meth:`mount_direction`)."""

@@ -19,10 +19,12 @@ __all__ = ["float64"]
 
 
 def float64(fn):
-    """Decorator: run ``fn`` with JAX's x64 mode switched on."""
+    """Decorator: run ``fn`` with JAX's x64 mode switched on (as it is, when it is on)."""
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        if jax.config.jax_enable_x64:
+            return fn(*args, **kwargs)
         with jax.enable_x64(True):
             return fn(*args, **kwargs)
 

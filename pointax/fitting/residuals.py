@@ -14,6 +14,7 @@ from jaxtyping import Array, Float
 
 from ..core.model import Model
 from ..core.observations import Observations
+from ..core.precision import float64
 from ..core.readings import check_readings, model_readings
 from ..core.rotations import tangent_offset, wrap_pi
 
@@ -47,11 +48,13 @@ def check_convention(model: Model, obs: Observations) -> None:
         )
 
 
+@float64
 def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     """Observed minus model on the sky, ``(n, 2)`` (cross-elevation, elevation) radians,
     as the model's :attr:`~pointax.Model.residual_form` defines them.
 
-    Pure JAX; observations with weight 0 give 0 (and may hold NaN).
+    Pure JAX, float64 whether or not JAX's x64 mode is on (:mod:`pointax.core.precision`);
+    observations with weight 0 give 0 (and may hold NaN).
     """
     if model.residual_form == "tpoint":
         return _tpoint_residuals(model, obs)
