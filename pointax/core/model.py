@@ -320,6 +320,7 @@ class Model(eqx.Module):
                 v = r @ v
         return v
 
+    @float64
     def corrected_encoder(self, encoder: Float[Array, "2"]) -> Float[Array, "2"]:
         """Axis angles after the terms' encoder corrections (one observation's raw
         reading; see :meth:`pointax.Mount.axis_angles`)."""
@@ -331,6 +332,7 @@ class Model(eqx.Module):
                 angles = angles + offset
         return angles
 
+    @float64
     def sky_offset(self, angles: Float[Array, "2"]) -> Float[Array, "2"] | None:
         """The sum of the terms' sky offsets at ``angles`` (one observation; None when no
         term has one)."""
@@ -341,6 +343,7 @@ class Model(eqx.Module):
                 total = offset if total is None else total + offset
         return total
 
+    @float64
     def sky_position(self, chain_angles: Float[Array, "*batch 2"]) -> Float[Array, "*batch 2"]:
         """Solve ``sky = chain_angles + sum(term.sky_offset(sky))`` by fixed-point
         iteration (``sky_iterations`` of them). A loop, not unrolled: unrolled, the
@@ -351,6 +354,7 @@ class Model(eqx.Module):
             offset = jax.vmap(self.sky_offset)
         return jax.lax.fori_loop(0, self.sky_iterations, lambda _, sky: chain_angles + offset(sky), chain_angles)
 
+    @float64
     def chain_direction(self, encoder: Float[Array, "2"]) -> tuple[Float[Array, "3"], Float[Array, "2"]]:
         """Where the chain of rotations points, before any sky offset: ``(direction in
         the mount frame, corrected axis angles)`` for one observation's raw reading."""

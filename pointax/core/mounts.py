@@ -33,6 +33,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from . import trig
+from .precision import float64
 from .rotations import (
     azel_to_enu,
     azel_trig,
@@ -462,6 +463,7 @@ class HeliostatMount(Mount):
     ideal: Float[Array, "2"]
     axis_names: ClassVar[tuple[str, str]] = ("axis1", "axis2")
 
+    @float64  # the geometry as float64 arrays whether or not JAX's x64 mode is on
     def __init__(self, increment, initial_stroke, offset, pivot_radius, initial_angle, clockwise, ideal=(0.0, 0.0)):
         def pair(x, name):
             x = jnp.asarray(x, float)
