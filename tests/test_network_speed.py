@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 
+import equinox as eqx
 import jax
 import numpy as np
 import pytest
@@ -46,15 +47,17 @@ def _dense_fit(model, obs) -> np.ndarray:
     pass): Gauss-Newton with ``J`` from forward-mode autodiff and NumPy's ``lstsq``."""
     from pointax.fitting.problem import site_data, site_residuals
 
-    data = site_data(model, obs)
-
-    def residuals(y):
+    def residuals(y, obs):
         fitted = model.replace_parameters(model.free_parameters, [y[k] for k in range(len(y))])
-        return jax.numpy.concatenate(site_residuals(fitted, data))
+        return jax.numpy.concatenate(site_residuals(fitted, site_data(model, obs)))
 
+    # One compiled program per site (op by op, the sites' sizes made it hundreds of
+    # small compilations per test).
+    linearised = eqx.filter_jit(lambda y, obs: (jax.jacfwd(residuals)(y, obs), residuals(y, obs)))
     y = np.zeros(len(model.free_parameters))
     for _ in range(6):  # Gauss-Newton to convergence (dense, NumPy's lstsq each step)
-        y = y + np.linalg.lstsq(np.asarray(jax.jacfwd(residuals)(y)), -np.asarray(residuals(y)), rcond=None)[0]
+        jac, r = linearised(y, obs)
+        y = y + np.linalg.lstsq(np.asarray(jac), -np.asarray(r), rcond=None)[0]
     return y
 
 
