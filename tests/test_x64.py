@@ -46,6 +46,7 @@ def test_residuals_and_the_forward_model_are_float64_outside_x64_mode():
         assert res.dtype == jnp.float64, res.dtype
         gap = float(np.max(np.abs(np.asarray(res) - np.asarray(r.residuals)))) / px.units.ARCSEC
         assert gap < 1e-6, gap
+        assert np.array_equal(np.asarray(px.residuals(r.model, run)), np.asarray(res))  # the run, as px.fit takes it
         e = run.observations.encoder[0]
         for method in (r.model.mount_direction, r.model.direction, r.model.sky_angles):
             assert method(e).dtype == jnp.float64, method

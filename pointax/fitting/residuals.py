@@ -49,13 +49,15 @@ def check_convention(model: Model, obs: Observations) -> None:
 
 
 @float64
-def residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
+def residuals(model: Model, obs) -> Float[Array, "n 2"]:
     """Observed minus model on the sky, ``(n, 2)`` (cross-elevation, elevation) radians,
     as the model's :attr:`~pointax.Model.residual_form` defines them.
 
     Pure JAX, float64 whether or not JAX's x64 mode is on (:mod:`pointax.core.precision`);
-    observations with weight 0 give 0 (and may hold NaN).
+    observations with weight 0 give 0 (and may hold NaN). ``obs``: :class:`Observations`
+    or a run that holds them (:func:`pointax.io.read_tpoint`), as :func:`pointax.fit` takes.
     """
+    obs = as_observations(obs)
     if model.residual_form == "tpoint":
         return _tpoint_residuals(model, obs)
     used = obs.weight > 0
