@@ -74,7 +74,7 @@ def test_padded_fit_equals_numpy_least_squares(run):
     moves nothing)."""
     obs = run[:37]
     result = px.fit(px.AltAz(px.terms.tpoint(list(TRUE), form="linear")), obs)
-    jac = np.asarray(jax.jacfwd(lambda v: px.residuals(result.model.with_values(v), obs).reshape(-1, order="F"))(
+    jac = np.asarray(jax.jit(jax.jacfwd(lambda v: px.residuals(result.model.with_values(v), obs).reshape(-1, order="F")))(
         result.model.values()))
     r = np.asarray(px.residuals(result.model, obs)).reshape(-1, order="F")
     step = np.linalg.lstsq(jac, -r, rcond=None)[0]
