@@ -194,25 +194,21 @@ class Model(eqx.Module):
             is_leaf=lambda x: x is None,
         )
 
+    @float64
     def values(self, which: str = "all") -> Float[Array, " n"]:
         """Parameter values (internal units) as one vector; ``which`` is 'all' or 'free'.
 
         float64 whether or not JAX's x64 mode is on (outside it, JAX would make the
         vector float32 and ``with_values(values())`` would truncate the model)."""
-        if not jax.config.jax_enable_x64:
-            with jax.enable_x64(True):
-                return self.values(which)
         params = self._select(which)
         if not params:
             return jnp.zeros((0,))
         return jnp.stack([jnp.asarray(getattr(self.terms[p.term], p.field), float) for p in params])
 
+    @float64
     def with_values(self, values: Float[ArrayLike, " n"], which: str = "all") -> "Model":
         """A copy with parameter values replaced from a vector (see :meth:`values`);
         float64 values stay float64 whether or not JAX's x64 mode is on."""
-        if not jax.config.jax_enable_x64:
-            with jax.enable_x64(True):
-                return self.with_values(values, which)
         params = self._select(which)
         values = jnp.asarray(values)
         if values.shape != (len(params),):
