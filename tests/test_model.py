@@ -91,3 +91,29 @@ def test_gradient_is_finite_at_the_zenith():
     enc = jnp.array([0.3, np.pi / 2])
     jac = jax.jacfwd(lambda y: model.with_values(y).direction(enc))(model.values())
     assert np.all(np.isfinite(np.asarray(jac)))
+
+
+def test_calls_outside_a_trace_compile_once_per_model_structure():
+    """px.residuals and the per-observation model called op by op (outside any jit) are
+    one compiled program per model structure (pointax.core.compiled): a second call, new
+    values of the same terms (Python numbers, as a term's defaults are) and new encoder
+    angles compile nothing. (Op by op, the sky offsets' fixed-point loop compiled again
+    at every call.) The answers are those of the same functions traced inside jit."""
+    from compile_counter import COUNTER
+
+    def model(ia, an):  # sky offsets (linear form): the fixed-point loop runs
+        return px.AltAz([px.terms.IA(coef=ia), px.terms.AN(coef=an), px.terms.CA(coef=0.0)])
+
+    obs = px.simulate(model(30 * ARCSEC, -12 * ARCSEC), np.array([[0.3, 0.5], [2.0, 1.1], [-1.0, 0.8]]))
+    first, second = model(10 * ARCSEC, 5 * ARCSEC), model(-4 * ARCSEC, 20 * ARCSEC)
+    px.residuals(first, obs)
+    first.mount_direction(np.array([0.1, 0.4]))
+    with COUNTER as counted:
+        r_first, r_second = px.residuals(first, obs), px.residuals(second, obs)
+        d = [second.mount_direction(np.array([a, 0.4])) for a in (0.2, 0.3)]
+    assert counted.count == 0
+    assert not np.allclose(r_first, r_second)
+    traced = jax.jit(lambda m: px.residuals(m, obs))(second)
+    np.testing.assert_allclose(r_second, traced, rtol=0, atol=1e-15)
+    traced_d = jax.jit(jax.vmap(second.mount_direction))(np.array([[0.2, 0.4], [0.3, 0.4]]))
+    np.testing.assert_allclose(np.stack(d), traced_d, rtol=0, atol=1e-15)

@@ -11,6 +11,7 @@
 * :mod:`~pointax.core.units`: angle units and plausibility checks.
 * :mod:`~pointax.core.errors`: the error and warning every reader raises for bad input.
 * :mod:`~pointax.core.precision`: float64 without changing the user's JAX settings.
+* :mod:`~pointax.core.compiled`: functions of a model compiled once per structure when called op by op.
 * :mod:`~pointax.core.lazy`: lazy package namespaces (``import pointax`` loads no numerical library).
 
 The core imports no particular term, no file format, no plotting, no command line and

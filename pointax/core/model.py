@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .compiled import compile_by_structure
 from .precision import float64
 from .mounts import Mount, SphericalMount
 from .readings import bind_readings, readings_needed
@@ -343,12 +344,10 @@ class Model(eqx.Module):
     def sky_position(self, chain_angles: Float[Array, "*batch 2"]) -> Float[Array, "*batch 2"]:
         """Solve ``sky = chain_angles + sum(term.sky_offset(sky))`` by fixed-point
         iteration (``sky_iterations`` of them). A loop, not unrolled: unrolled, the
-        iterations of a many-term model multiply its compilation time."""
-        if chain_angles.ndim == 1:
-            offset = self.sky_offset
-        else:
-            offset = jax.vmap(self.sky_offset)
-        return jax.lax.fori_loop(0, self.sky_iterations, lambda _, sky: chain_angles + offset(sky), chain_angles)
+        iterations of a many-term model multiply its compilation time. Called outside a
+        trace, it is compiled once per model structure (:mod:`pointax.core.compiled`):
+        op by op, the loop was compiled again at every call."""
+        return _sky_fixed_point(self, jnp.asarray(chain_angles))
 
     @float64
     def chain_direction(self, encoder: Float[Array, "2"]) -> tuple[Float[Array, "3"], Float[Array, "2"]]:
@@ -413,3 +412,12 @@ class Model(eqx.Module):
         """One line naming the mount and terms."""
         names = " ".join(t.name for t in self.terms) or "(no terms)"
         return f"{type(self.mount).__name__}({getattr(self.mount, 'convention', '') or ''}): {names}"
+
+
+@compile_by_structure
+def _sky_fixed_point(model: Model, chain_angles: Float[Array, "*batch 2"]) -> Float[Array, "*batch 2"]:
+    """:meth:`Model.sky_position`."""
+    offset = model.sky_offset
+    for _ in range(chain_angles.ndim - 1):
+        offset = jax.vmap(offset)
+    return jax.lax.fori_loop(0, model.sky_iterations, lambda _, sky: chain_angles + offset(sky), chain_angles)

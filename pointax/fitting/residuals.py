@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..core.compiled import compile_by_structure
 from ..core.model import Model
 from ..core.observations import Observations
 from ..core.precision import float64
@@ -56,8 +57,15 @@ def residuals(model: Model, obs) -> Float[Array, "n 2"]:
     Pure JAX, float64 whether or not JAX's x64 mode is on (:mod:`pointax.core.precision`);
     observations with weight 0 give 0 (and may hold NaN). ``obs``: :class:`Observations`
     or a run that holds them (:func:`pointax.io.read_tpoint`), as :func:`pointax.fit` takes.
+
+    Compiled once per model structure and number of observations
+    (:mod:`pointax.core.compiled`).
     """
-    obs = as_observations(obs)
+    return _residuals(model, as_observations(obs))
+
+
+@compile_by_structure
+def _residuals(model: Model, obs: Observations) -> Float[Array, "n 2"]:
     if model.residual_form == "tpoint":
         return _tpoint_residuals(model, obs)
     used = obs.weight > 0
