@@ -20,7 +20,6 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -80,9 +79,6 @@ def _families(families, obs: Observations, naming: str, form: str, mount=None) -
     if len(mounts) > 1:
         raise ValueError(f"all families must share one mount kind, got {sorted(t.__name__ for t in mounts)}")
     return out
-
-
-_residuals = eqx.filter_jit(residuals)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -343,7 +339,7 @@ def compare(
         """``px.residuals(model, the observations of rows)``: the rows are picked by
         weight, so every set of rows shares one compiled evaluation per model."""
         chosen = obs64.with_weight(jnp.asarray(rows, jnp.float64))
-        return np.asarray(_residuals(model, chosen))[rows]
+        return np.asarray(residuals(model, chosen))[rows]
 
     out_rows = np.zeros(len(obs), bool)
     for _, v_rows in scheme.splits:

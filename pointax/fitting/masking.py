@@ -103,22 +103,9 @@ def all_residuals(model, observations) -> np.ndarray:
     obs = Observations(
         observations.encoder, observations.target, None, observations.convention, getattr(observations, "readings", None)
     )
-    return np.asarray(_residuals_compiled()(model, obs), np.float64)
+    from .residuals import residuals
 
-
-_COMPILED: list = []
-
-
-def _residuals_compiled():
-    """:func:`pointax.residuals`, compiled once: evaluated op by op, its vmap over the
-    observations compiles dozens of small programs on every call."""
-    if not _COMPILED:
-        import equinox as eqx
-
-        from .residuals import residuals
-
-        _COMPILED.append(eqx.filter_jit(residuals))
-    return _COMPILED[0]
+    return np.asarray(residuals(model, obs), np.float64)
 
 
 class ObservationResiduals(NamedTuple):
