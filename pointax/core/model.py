@@ -395,23 +395,31 @@ class Model(eqx.Module):
         """Pointing directions (ENU) for raw encoder angles of any batch shape (radians,
         or an astropy Quantity, converted). ``readings``: for a model that reads
         auxiliary readings (:attr:`readings`), a mapping name -> value per observation,
-        arrays of the batch shape ``(*batch,)`` (or scalars, the same for all)."""
+        arrays of the batch shape ``(*batch,)`` (or scalars, the same for all). Called
+        outside a trace, compiled once per model structure and batch size
+        (:mod:`pointax.core.compiled`)."""
         if is_quantity(encoder):
             encoder = value_in_unit(encoder, "rad", "encoder")
         encoder = jnp.asarray(encoder, float)
         flat = encoder.reshape(-1, 2)
-        if readings is None or not self.readings:
-            out = jax.vmap(self.direction)(flat)
-        else:
+        per = None
+        if readings is not None and self.readings:
             batch = encoder.shape[:-1]
             per = {k: jnp.broadcast_to(jnp.asarray(v, float), batch).reshape(-1) for k, v in readings.items() if k in self.readings}
-            out = jax.vmap(lambda e, r: self.at_readings(r).direction(e))(flat, per)
-        return out.reshape(encoder.shape[:-1] + (3,))
+        return _directions(self, flat, per).reshape(encoder.shape[:-1] + (3,))
 
     def describe(self) -> str:
         """One line naming the mount and terms."""
         names = " ".join(t.name for t in self.terms) or "(no terms)"
         return f"{type(self.mount).__name__}({getattr(self.mount, 'convention', '') or ''}): {names}"
+
+
+@compile_by_structure
+def _directions(model: Model, encoder: Float[Array, "n 2"], readings: dict | None) -> Float[Array, "n 3"]:
+    """:meth:`Model.__call__` of ``(n, 2)`` encoder angles (``readings``: name -> ``(n,)``)."""
+    if readings is None:
+        return jax.vmap(model.direction)(encoder)
+    return jax.vmap(lambda e, r: model.at_readings(r).direction(e))(encoder, readings)
 
 
 @compile_by_structure
