@@ -1,10 +1,11 @@
 """Functions of a model compiled as one program when called outside a trace.
 
 Run op by op, the per-observation model is many small operations, each compiled on its
-first use and dispatched one at a time: the bundled MMT run's residuals took 2.3 s at
-their first call so, against 0.4 s as one program. :func:`compile_by_structure` compiles
-such a function once per pytree structure and array shapes of its arguments; inside a
-caller's ``jit``, ``vmap`` or ``grad`` it is traced into the caller's program as usual.
+first use and dispatched one at a time, which is several times slower than compiling
+the whole evaluation once (figures in ``benchmarks/interactive_notes.md``).
+:func:`compile_by_structure` compiles such a function once per pytree structure and
+array shapes of its arguments; inside a caller's ``jit``, ``vmap`` or ``grad`` it is
+traced into the caller's program as usual.
 """
 
 from __future__ import annotations

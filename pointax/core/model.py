@@ -346,7 +346,7 @@ class Model(eqx.Module):
         iteration (``sky_iterations`` of them). A loop, not unrolled: unrolled, the
         iterations of a many-term model multiply its compilation time. Called outside a
         trace, it is compiled once per model structure (:mod:`pointax.core.compiled`):
-        op by op, the loop was compiled again at every call."""
+        op by op, a loop is compiled again at every call."""
         return _sky_fixed_point(self, jnp.asarray(chain_angles))
 
     @float64
