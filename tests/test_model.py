@@ -94,10 +94,10 @@ def test_gradient_is_finite_at_the_zenith():
 
 
 def test_calls_outside_a_trace_compile_once_per_model_structure():
-    """px.residuals, the per-observation model and the model's call on a batch, called
-    op by op (outside any jit), are one compiled program per model structure
+    """px.residuals, the per-observation model, the model's call on a batch and
+    px.simulate, called outside any jit, are one compiled program per model structure
     (pointax.core.compiled): a second call, new values of the same terms (Python
-    numbers, as a term's defaults are) and new encoder angles compile nothing. (Op by op, the sky offsets' fixed-point loop compiled again
+    numbers, as a term's defaults are, or arrays) and new encoder angles compile nothing. (Op by op, the sky offsets' fixed-point loop compiled again
     at every call.) The answers are those of the same functions traced inside jit."""
     from compile_counter import COUNTER
 
@@ -110,11 +110,15 @@ def test_calls_outside_a_trace_compile_once_per_model_structure():
     first.mount_direction(np.array([0.1, 0.4]))
     grid = np.array([[0.2, 0.4], [0.3, 0.4]])
     first(grid + 0.1)
+    px.simulate(first, grid)
+    as_arrays = second.with_values(second.values())  # the same values, as JAX arrays
     with COUNTER as counted:
         r_first, r_second = px.residuals(first, obs), px.residuals(second, obs)
         d = [second.mount_direction(np.array([a, 0.4])) for a in (0.2, 0.3)]
         called = second(grid)
+        simulated = px.simulate(as_arrays, grid)
     assert counted.count == 0
+    np.testing.assert_array_equal(simulated.target, px.simulate(second, grid).target)
     assert not np.allclose(r_first, r_second)
     traced = jax.jit(lambda m: px.residuals(m, obs))(second)
     np.testing.assert_allclose(r_second, traced, rtol=0, atol=1e-15)

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from .compiled import compile_by_structure
 from .precision import float64
 from .model import Model
 from .observations import Observations
@@ -65,10 +65,11 @@ def simulation_bucket(n: int) -> int:
     return power_of_two(n, 128)
 
 
-@jax.jit
-def _noisy_directions(model: Model, encoder, offsets, readings=None):
+@compile_by_structure
+def _noisy_directions(model: Model, encoder, offsets, readings):
     """``(n, 3)`` ENU directions at gnomonic ``offsets`` (mount frame) from ``model``'s
-    pointing at ``encoder``: one compiled program."""
+    pointing at ``encoder``: one compiled program per model structure, whether its
+    values are Python numbers or arrays."""
     frame = jnp.asarray(model.mount.frame)
     truth = model(encoder, readings=readings or None) @ frame
     return offset_direction(truth, offsets) @ frame.T
