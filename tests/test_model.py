@@ -97,8 +97,9 @@ def test_calls_outside_a_trace_compile_once_per_model_structure():
     """px.residuals, the per-observation model, the model's call on a batch and
     px.simulate, called outside any jit, are one compiled program per model structure
     (pointax.core.compiled): a second call, new values of the same terms (Python
-    numbers, as a term's defaults are, or arrays) and new encoder angles compile nothing. (Op by op, the sky offsets' fixed-point loop compiled again
-    at every call.) The answers are those of the same functions traced inside jit."""
+    numbers, as a term's defaults are, or arrays) and new encoder angles compile
+    nothing. (Op by op, the sky offsets' fixed-point loop compiled again at every
+    call.) The answers are those of the same functions traced inside jit."""
     from compile_counter import COUNTER
 
     def model(ia, an):  # sky offsets (linear form): the fixed-point loop runs

@@ -537,3 +537,34 @@ def test_cli_plan_sun_sky_and_bad_new_options(capsys):
         assert option in capsys.readouterr().err
     assert main(sun + ["--cadence", "60"]) == 2
     assert "--cadence" in capsys.readouterr().err
+
+
+def test_readings_and_jacobian_compile_once_per_model_structure():
+    """readings_for and pointing_jacobian compile once per model structure: the same
+    terms with other values, as Python numbers or as arrays, compile nothing (counted).
+    The Jacobian is checked against central finite differences of the directions."""
+    from compile_counter import COUNTER
+
+    def model(ia, ca):
+        return px.AltAz([px.terms.IA(coef=ia), px.terms.CA(coef=ca), px.terms.rigorous.NPAE(coef=5 * ARCSEC)])
+
+    directions = azel_to_enu_numpy(np.array([0.3, 2.0, -1.0]), np.array([0.5, 1.1, 0.8]))
+    first, second = model(10 * ARCSEC, -20 * ARCSEC), model(-30 * ARCSEC, 40 * ARCSEC)
+    pl.pointing_jacobian(first, pl.readings_for(first, directions)[0])
+    as_arrays = second.with_values(second.values())
+    with COUNTER as counted:
+        readings, ok = pl.readings_for(second, directions)
+        jac, _ = pl.pointing_jacobian(as_arrays, readings)
+    assert counted.count == 0 and ok.all()
+    frame, y, h = np.asarray(second.mount.frame), np.asarray(second.values()), 1e-7
+
+    def in_mount_frame(values):  # (n, 3) directions at the readings, mount frame
+        return np.asarray(second.with_values(values)(readings)) @ frame
+
+    centre = in_mount_frame(y)
+    for k in range(3):
+        step = h * np.eye(3)[k]
+        up, down = in_mount_frame(y + step), in_mount_frame(y - step)
+        offset = jax.vmap(px.rotations.tangent_offset)
+        fd = (np.asarray(offset(up, centre)) - np.asarray(offset(down, centre))) / (2 * h)
+        np.testing.assert_allclose(np.asarray(jac)[:, :, k], fd, rtol=0, atol=1e-6)

@@ -13,12 +13,12 @@ mount's frame at that direction: the axes of the fit residuals
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..core.compiled import compile_by_structure
 from ..core.precision import float64
 from ..core.model import Model
 from ..core.observations import COUNTED_READINGS
@@ -54,12 +54,7 @@ def padded_size(n: int) -> int:
     return power_of_two(n, _MIN_BATCH)
 
 
-def _arrays(model: Model) -> Model:
-    """The model with its parameters as float64 arrays (jit traces, does not bake)."""
-    return model.with_values(model.values())
-
-
-@eqx.filter_jit
+@compile_by_structure
 def _readings(model: Model, directions, flipped):
     mount = model.mount
     frame = jnp.asarray(mount.frame)
@@ -118,7 +113,7 @@ def readings_for(
     n = d.shape[0]
     if n == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
-    reading, miss = _readings(_arrays(model), jnp.asarray(pad_rows(d, padded_size(n))), jnp.asarray(solution == "flipped"))
+    reading, miss = _readings(model, jnp.asarray(pad_rows(d, padded_size(n))), jnp.asarray(solution == "flipped"))
     reading, miss = np.asarray(reading)[:n], np.asarray(miss)[:n]
     return reading, np.isfinite(miss) & (miss <= INVERSE_TOL) & np.all(np.isfinite(reading), axis=-1)
 
@@ -154,7 +149,7 @@ def reading_limits_ok(model: Model, readings: np.ndarray, limits) -> tuple[np.nd
     return r, ok
 
 
-@eqx.filter_jit
+@compile_by_structure
 def _jacobian(model: Model, readings):
     free = model.free_parameters
     y0 = model.values("free")
@@ -185,5 +180,5 @@ def pointing_jacobian(
     if not model.free_parameters:
         raise ValueError("the model has no free parameters: nothing to predict or plan")
     n = readings.shape[0]
-    jac, d = _jacobian(_arrays(model), jnp.asarray(pad_rows(readings, padded_size(n))))
+    jac, d = _jacobian(model, jnp.asarray(pad_rows(readings, padded_size(n))))
     return jac[:n], d[:n]
