@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 
 import pointax as px
 import tpoint_numpy as ref
-from compile_counter import traces
+from compile_counter import COUNTER, traces
 
 NAMES = ["IA", "IE", "AN", "AW", "TF"]
 MU = np.array([30.0, -20.0, 10.0, 5.0, 8.0]) * ref.ARCSEC
@@ -346,7 +346,9 @@ def test_a_nonlinear_fit_compiles_one_em_and_two_linearisations(monkeypatch):
     """The rounds of a nonlinear pooled fit, the last Gauss-Newton step's included, are
     one loop: its program holds the start's linearisation and the loop's (with its EM),
     at any number of steps (copies of them before and after the loop doubled its
-    compiling)."""
+    compiling). The number of steps and EM's iteration limit are data: other counts
+    run the same program (nothing traced, nothing compiled) and take the steps and the
+    limit asked for (counted in EM updates)."""
     from pointax.fitting import pooled
 
     called = {"_linearise": 0, "_em": 0}
@@ -361,15 +363,28 @@ def test_a_nonlinear_fit_compiles_one_em_and_two_linearisations(monkeypatch):
     sites = [_turntable_site(n, 90 + k)[0] for k, n in enumerate([7, 9, 11])]
     starts = _turntable_starts(sites)
     obs = px.stack_observations(sites)
-    for steps in (2, 5):  # a program of its own each (steps is static)
-        called.update(_linearise=0, _em=0)
-        with traces() as seen:
-            fit = px.fit_pooled(
-                px.Turntable("full"), obs, values=starts, unpooled=("alpha0",), covariance="diagonal", steps=steps
-            )
-        assert "_pooled_fit" in seen  # traced here, so the counts are of this program
-        assert called == {"_linearise": 2, "_em": 1}, (steps, called)
-        assert np.all(np.isfinite(np.asarray(fit.sites.values)))
+
+    def fit(steps, max_iterations=2000):
+        return px.fit_pooled(
+            px.Turntable("full"), obs, values=starts, unpooled=("alpha0",), covariance="diagonal", steps=steps,
+            max_iterations=max_iterations,
+        )  # fmt: skip
+
+    with traces() as seen:
+        two = fit(2)
+    assert "_pooled_fit" in seen  # traced here, so the counts are of this program
+    assert called == {"_linearise": 2, "_em": 1}, called
+    with traces() as seen, COUNTER as compiled:
+        five = fit(5)
+        capped = fit(5, max_iterations=3)
+    assert "_pooled_fit" not in seen and compiled.count == 0, (seen, compiled.count)
+    assert called == {"_linearise": 2, "_em": 1}, called
+    for out in (two, five, capped):
+        assert np.all(np.isfinite(np.asarray(out.sites.values)))
+    # Each round but the last runs EM, whose every pass makes 3 updates: capped at 3,
+    # five rounds make exactly 15; uncapped, at least that many.
+    iterations = [int(np.max(np.asarray(out.sites.iterations))) for out in (two, five, capped)]
+    assert iterations[2] == 15 and iterations[1] >= 15 and iterations[0] >= 6, iterations
 
 
 # --------------------------------------------------------------------------- command line

@@ -473,9 +473,10 @@ def _scaled_norm(d: _Population, pop: _Population) -> Array:
 
 
 @eqx.filter_jit
-def _pooled_fit(model, own, shared, y, p, obs, group, noise, tol, rtol, atol, k, *, n_groups, pooled_mask,
-                diagonal, steps, affine, max_iterations):  # fmt: skip
-    """The whole pooled fit in one compiled call (see the module)."""
+def _pooled_fit(model, own, shared, y, p, obs, group, noise, tol, rtol, atol, k, steps, max_iterations, *, n_groups,
+                pooled_mask, diagonal, affine):  # fmt: skip
+    """The whole pooled fit in one compiled call (see the module). ``steps`` and
+    ``max_iterations`` are arrays, so that other counts run the same program."""
     pooled = jnp.asarray(pooled_mask, bool)
     noise_fixed = noise > 0  # (G,): a noise given, not estimated
     data = site_data(model, obs)
@@ -632,8 +633,9 @@ def fit_pooled(
         A :class:`PooledFit`.
 
     One compilation per model structure, number of groups and batch shape: new data,
-    starting values, groups of the same count or a new ``noise`` value run the same
-    program.
+    starting values, groups of the same count, a new ``noise`` value, other ``steps``
+    (beyond 1 for a model affine in its parameters, which then takes its own program)
+    or another ``max_iterations`` run the same program.
     """
     check_batch(observations)
     check_convention(model, observations)
@@ -681,8 +683,8 @@ def fit_pooled(
                     f"group {name!r} has {count} sites with data for {n_pooled} pooled parameters: a full population "
                     "covariance needs more sites than parameters (its estimate is singular); use covariance='diagonal'"
                 )
-    statics = dict(n_groups=len(group_names), pooled_mask=pooled_mask, diagonal=covariance == "diagonal", steps=int(steps),
-                   affine=bool(is_affine(model)) and int(steps) == 1, max_iterations=int(max_iterations))  # fmt: skip
+    statics = dict(n_groups=len(group_names), pooled_mask=pooled_mask, diagonal=covariance == "diagonal",
+                   affine=bool(is_affine(model)) and int(steps) == 1)  # fmt: skip
     bar = progress_bar(n_sites, "pooling", "site", enabled=True) if progress is True else None
     report = bar if bar is not None else (progress or None)
     first = first_call("pooled_fit", (host, y0, obs, codes, shared_params), tuple(statics.items()))
@@ -691,7 +693,8 @@ def fit_pooled(
             out = _pooled_fit(
                 host, own, shared_params, jnp.asarray(y0), jnp.asarray(p0), obs, jnp.asarray(codes),
                 jnp.full(len(group_names), sigma), jnp.asarray(float(tol)), jnp.asarray(float(rtol)),
-                jnp.asarray(float(atol)), jnp.asarray(float(k)), **statics,
+                jnp.asarray(float(atol)), jnp.asarray(float(k)), jnp.asarray(int(steps)),
+                jnp.asarray(int(max_iterations)), **statics,
             )  # fmt: skip
             out = jax.block_until_ready(out)  # the notice lasts as long as the wait
         if report is not None:
