@@ -8,6 +8,8 @@ union's extra terms at 0 must change nothing), and NumPy least squares.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -214,37 +216,61 @@ def test_use_lose_fix_mask_do_not_recompile_in_either_form(run):
     assert all(bool(r.converged) for r in results)
 
 
-def test_a_fresh_process_loads_the_traced_fit(tmp_path):
-    """With the caches on, a second process fitting the same structure reads the
-    exported program instead of tracing the fit (counted, not timed), imports no solver
-    library, and gets the same numbers; clear() empties the folder."""
+# A fit in a fresh process with the caches on (POINTAX_JAX_CACHE), printing what the
+# stored programs did, the values, and which of the solver and term libraries that an
+# alt-az fit does not need it imported; ``other-jax`` pretends another JAX version.
+_FRESH_FIT = (
+    "import json, sys, pointax as px\n"
+    "from pointax.fitting import programs\n"
+    "px.enable_compilation_cache()\n"
+    "if sys.argv[1:] == ['other-jax']:\n"
+    "    programs._VERSIONS[:] = [programs._versions().replace('jax=', 'jax=0.0.0+other ')]\n"
+    f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
+    "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
+    "lazy = ('optimistix', 'lineax') + tuple('pointax.terms.' + m for m in ('equatorial', 'gpoint', 'xy'))\n"
+    "solvers = sorted(m for m in lazy if m in sys.modules)\n"
+    "print(json.dumps({'stats': programs.STATS, 'values': [float(v) for v in r.values], 'solvers': solvers}))\n"
+)
+
+
+def _fresh_fit(cache: Path, *argv: str) -> tuple[dict, str]:
+    """:data:`_FRESH_FIT` run in a new process with the caches in ``cache``: its
+    report and standard error."""
     import json
     import os
     import subprocess
     import sys
 
-    code = (
-        "import json, pointax as px\n"
-        "from pointax.fitting import programs\n"
-        "px.enable_compilation_cache()\n"
-        f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
-        "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
-        "import sys\n"
-        "lazy = ('optimistix', 'lineax') + tuple('pointax.terms.' + m for m in ('equatorial', 'gpoint', 'xy'))\n"
-        "solvers = sorted(m for m in lazy if m in sys.modules)\n"
-        "print(json.dumps({'stats': programs.STATS, 'values': [float(v) for v in r.values], 'solvers': solvers}))\n"
-    )
-    env = {**os.environ, "POINTAX_JAX_CACHE": str(tmp_path / "cache")}
-    folder = tmp_path / "cache" / "programs"
+    env = {**os.environ, "POINTAX_JAX_CACHE": str(cache)}
+    proc = subprocess.run([sys.executable, "-c", _FRESH_FIT, *argv], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.splitlines()[-1]), proc.stderr
 
-    def run_once():
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        return json.loads(proc.stdout.splitlines()[-1]), proc.stderr
 
-    first, _ = run_once()
+@pytest.fixture(scope="module")
+def stored_fit(tmp_path_factory) -> tuple[Path, dict]:
+    """The caches folder after a first fresh-process fit (which traced and stored the
+    fit), and that fit's report; tests work on copies of the folder."""
+    cache = tmp_path_factory.mktemp("stored") / "cache"
+    first, _ = _fresh_fit(cache)
+    return cache, first
+
+
+def _copy_of(stored_fit, tmp_path: Path) -> Path:
+    import shutil
+
+    return Path(shutil.copytree(stored_fit[0], tmp_path / "cache"))
+
+
+def test_a_fresh_process_loads_the_traced_fit(stored_fit, tmp_path):
+    """With the caches on, a second process fitting the same structure reads the
+    exported program instead of tracing the fit (counted, not timed), imports no solver
+    library, and gets the same numbers; clear() empties the folder."""
+    first = stored_fit[1]
+    cache = _copy_of(stored_fit, tmp_path)
+    folder = cache / "programs"
     assert first["stats"]["exported"] == 1 and first["stats"]["stored"] == 1 and first["stats"]["loaded"] == 0
-    second, err = run_once()
+    second, err = _fresh_fit(cache)
     assert second["stats"]["exported"] == 0 and second["stats"]["loaded"] == 1 and "unreadable" not in err
     # Neither the solvers nor the term classes an alt-az fit does not use.
     assert first["solvers"] == ["lineax", "optimistix"] and second["solvers"] == []
@@ -256,46 +282,25 @@ def test_a_fresh_process_loads_the_traced_fit(tmp_path):
     assert not folder.exists()
 
 
-def test_an_unreadable_stored_program_is_traced_again_with_a_note(tmp_path):
+def test_an_unreadable_stored_program_is_traced_again_with_a_note(stored_fit, tmp_path):
     """A stored program that cannot be read (here truncated: a disk filled while it was
     written by hand, another writer) is traced again and replaced, and the process says
     so in one line; the fit's numbers are those of a fresh trace. An entry written by
     other versions of JAX or its libraries is never read: their versions are part of the
     key."""
-    import json
-    import os
-    import subprocess
-    import sys
-
-    code = (
-        "import json, sys, pointax as px\n"
-        "from pointax.fitting import programs\n"
-        "px.enable_compilation_cache()\n"
-        "if sys.argv[1:] == ['other-jax']:\n"
-        "    programs._VERSIONS[:] = [programs._versions().replace('jax=', 'jax=0.0.0+other ')]\n"
-        f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
-        "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
-        "print(json.dumps({'stats': programs.STATS, 'values': [float(v) for v in r.values]}))\n"
-    )
-    env = {**os.environ, "POINTAX_JAX_CACHE": str(tmp_path / "cache")}
-    folder = tmp_path / "cache" / "programs"
-
-    def run_once(*argv):
-        proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, env=env, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        return json.loads(proc.stdout.splitlines()[-1]), proc.stderr
-
-    first, _ = run_once()
+    first = stored_fit[1]
+    cache = _copy_of(stored_fit, tmp_path)
+    folder = cache / "programs"
     (entry,) = folder.glob("*.program")
     entry.write_bytes(entry.read_bytes()[: entry.stat().st_size // 2])
-    second, err = run_once()
+    second, err = _fresh_fit(cache)
     assert second["stats"]["unreadable"] == 1 and second["stats"]["exported"] == 1 and second["stats"]["stored"] == 1
     notes = [line for line in err.splitlines() if "unreadable" in line]
     assert len(notes) == 1 and f"stored program {entry} unreadable" in notes[0] and "tracing the fit again" in notes[0]
     assert second["values"] == first["values"]
-    third, err = run_once()  # replaced: read as usual
+    third, err = _fresh_fit(cache)  # replaced: read as usual
     assert third["stats"]["loaded"] == 1 and third["stats"]["exported"] == 0 and "unreadable" not in err
-    other, _ = run_once("other-jax")  # another key: traced and stored beside, nothing stale read
+    other, _ = _fresh_fit(cache, "other-jax")  # another key: traced and stored beside, nothing stale read
     assert other["stats"]["loaded"] == 0 and other["stats"]["exported"] == 1 and other["stats"]["unreadable"] == 0
     assert len(list(folder.glob("*.program"))) == 2 and other["values"] == first["values"]
 

@@ -16,9 +16,10 @@ so that nothing a command writes lands in the repository.
   the subcommand's parser: every ``--option`` they show is one it accepts;
 * every synopsis also runs for real as a worked example on the bundled data
   (:data:`WORKED_EXAMPLES`: the MMT run, the tests' gpoint and offsets tables, a PAINT
-  folder of ../shared, a frame written by the test), each a few seconds, through the
-  installed ``pointax`` entry point: exit 0 and a key line of its output (a value the
-  README states, or the fitted truth of synthetic data). Those that take longer are
+  folder of ../shared, a frame written by the test), each a few seconds, all in one
+  process through ``pointax.cli.main`` (what the installed entry point calls; the cheap
+  commands above run the entry point itself): exit 0 and a key line of its output (a
+  value the README states, or the fitted truth of synthetic data). Those that take longer are
   skipped, saying why (:data:`SLOW_SYNOPSES`): ``pointax compare`` (15 s of CPU for
   two families), ``pointax fit-network`` (a minute), ``pointax plan`` (20-30 s: the
   test above runs the first).
@@ -366,21 +367,74 @@ def _inputs(out: Path) -> None:
     )
 
 
-@pytest.mark.parametrize(
-    "prefix, argv, key, written", WORKED_EXAMPLES, ids=[f"{e[1][0]}-{k}" for k, e in enumerate(WORKED_EXAMPLES)]
-)
-def test_synopsis_worked_example_runs(readme, workdir, tmp_path, prefix, argv, key, written):
-    argv = [a.format(out=tmp_path) for a in argv]
+def _skip_reason(argv: list[str], workdir: Path) -> str | None:
+    """Why a worked example cannot run here (a missing extra or ../shared), or None."""
+    import importlib.util
+
     if any(a.startswith("../shared") for a in argv) and not (workdir.parent / "shared").is_dir():
-        pytest.skip("../shared is not beside the checkout")
-    if argv[0] == "centroid":
-        pytest.importorskip("torch", reason="pointax centroid needs the vision extra")
-        pytest.importorskip("kornia", reason="pointax centroid needs the vision extra")
-    if argv[0] in ("plot", "report") or "--plot" in argv:
-        pytest.importorskip("matplotlib", reason="plots need the plot extra")
-    _inputs(tmp_path)
-    proc = _run([str(ROOT / ".venv" / "bin" / "pointax"), *argv], workdir)
-    assert proc.returncode == 0, f"pointax {' '.join(argv)}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
-    assert re.search(key, proc.stdout), f"pointax {' '.join(argv)}: no {key!r} in\n{proc.stdout[-3000:]}"
+        return "../shared is not beside the checkout"
+    if argv[0] == "centroid" and not all(importlib.util.find_spec(m) for m in ("torch", "kornia")):
+        return "pointax centroid needs the vision extra (torch, kornia)"
+    if (argv[0] in ("plot", "report") or "--plot" in argv) and importlib.util.find_spec("matplotlib") is None:
+        return "plots need the plot extra (matplotlib)"
+    return None
+
+
+# The worked examples run in one process, each through ``pointax.cli.main`` (what the
+# installed ``pointax`` calls; the entry point itself runs above), with its own standard
+# output and error and its exit status: one import of the numerical libraries instead of
+# one per example, and the examples that fit the same model share its compiled fit.
+_DRIVER = """
+import contextlib, io, json, sys, traceback
+from pointax.cli import main
+out = []
+for argv in json.loads(sys.argv[1]):
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        try:
+            code = main(argv)
+        except SystemExit as err:
+            code = err.code if isinstance(err.code, int) else 1
+        except Exception:
+            traceback.print_exc()
+            code = 1
+    out.append({"code": code or 0, "stdout": stdout.getvalue(), "stderr": stderr.getvalue()})
+print(json.dumps(out))
+"""
+
+
+@pytest.fixture(scope="module")
+def worked_examples(workdir, tmp_path_factory) -> list[dict]:
+    """Each worked example's ``argv`` (with its output folder), and ``skip`` (why it does
+    not run here) or the ``code``, ``stdout`` and ``stderr`` of its run."""
+    import json
+
+    runs = []
+    for k, (_, argv, _, _) in enumerate(WORKED_EXAMPLES):
+        out = tmp_path_factory.mktemp(f"example{k}")
+        _inputs(out)
+        argv = [a.format(out=out) for a in argv]
+        runs.append({"argv": argv, "out": out, "skip": _skip_reason(argv, workdir)})
+    todo = [r for r in runs if r["skip"] is None]
+    if todo:
+        proc = _run([str(ROOT / ".venv" / "bin" / "python"), "-c", _DRIVER, json.dumps([r["argv"] for r in todo])], workdir)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        for r, result in zip(todo, json.loads(proc.stdout.splitlines()[-1]), strict=True):
+            r.update(result)
+    return runs
+
+
+@pytest.mark.parametrize(
+    "k, prefix, argv, key, written",
+    [(k, *e) for k, e in enumerate(WORKED_EXAMPLES)],
+    ids=[f"{e[1][0]}-{k}" for k, e in enumerate(WORKED_EXAMPLES)],
+)
+def test_synopsis_worked_example_runs(worked_examples, k, prefix, argv, key, written):
+    run = worked_examples[k]
+    if run["skip"]:
+        pytest.skip(run["skip"])
+    command = "pointax " + " ".join(run["argv"])
+    assert run["code"] == 0, f"{command}\n{run['stdout'][-2000:]}\n{run['stderr'][-2000:]}"
+    assert re.search(key, run["stdout"]), f"{command}: no {key!r} in\n{run['stdout'][-3000:]}"
     for name in written:
-        assert (tmp_path / name).stat().st_size > 0, name
+        assert (run["out"] / name).stat().st_size > 0, name
