@@ -425,11 +425,11 @@ def worked_examples(workdir, tmp_path_factory) -> list[dict]:
 
 
 @pytest.mark.parametrize(
-    "k, prefix, argv, key, written",
-    [(k, *e) for k, e in enumerate(WORKED_EXAMPLES)],
+    "k, key, written",
+    [(k, key, written) for k, (_, _, key, written) in enumerate(WORKED_EXAMPLES)],
     ids=[f"{e[1][0]}-{k}" for k, e in enumerate(WORKED_EXAMPLES)],
 )
-def test_synopsis_worked_example_runs(worked_examples, k, prefix, argv, key, written):
+def test_synopsis_worked_example_runs(worked_examples, k, key, written):
     run = worked_examples[k]
     if run["skip"]:
         pytest.skip(run["skip"])

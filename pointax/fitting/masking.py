@@ -99,12 +99,11 @@ def all_residuals(model, observations) -> np.ndarray:
     residual form (:func:`pointax.residuals`), evaluated in float64. A row that lacks
     an auxiliary reading the model reads (NaN) gets NaN."""
     from ..core.observations import Observations
+    from .residuals import residuals
 
     obs = Observations(
         observations.encoder, observations.target, None, observations.convention, getattr(observations, "readings", None)
     )
-    from .residuals import residuals
-
     return np.asarray(residuals(model, obs), np.float64)
 
 
