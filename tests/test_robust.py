@@ -17,7 +17,8 @@ import pytest
 import scipy.optimize
 
 import pointax as px
-from pointax.fitting import LOSSES, FitOptions, free_mask, least_squares, robust_sigma
+from compile_counter import COUNTER
+from pointax.fitting import LOSSES, FitOptions, fit_model, free_mask, least_squares, robust_sigma
 from pointax.core.simulate import encoder_grid
 
 ARCSEC = math.pi / 648000
@@ -340,29 +341,60 @@ def test_leave_one_out_checks_the_convention_and_honours_fixed(clean):
 # --------------------------------------------------------------------------- 7. program size
 
 
-def _solver_loops(jaxpr) -> int:
-    """The ``while`` loops anywhere in ``jaxpr`` (each optimistix solve is one)."""
+def _loops(jaxpr) -> tuple[int, int]:
+    """``(every while loop, innermost ones)`` anywhere in ``jaxpr``: each optimistix
+    solve is an innermost loop; a robust fit's passes are a loop around one."""
     from jax.extend.core import ClosedJaxpr
 
-    n = 0
+    every = innermost = 0
     for eqn in jaxpr.eqns:
-        n += eqn.primitive.name == "while"
+        inside = (0, 0)
         for value in eqn.params.values():
             for sub in value if isinstance(value, (tuple, list)) else (value,):
                 if isinstance(sub, ClosedJaxpr):
-                    n += _solver_loops(sub.jaxpr)
-    return n
+                    found = _loops(sub.jaxpr)
+                    inside = (inside[0] + found[0], inside[1] + found[1])
+        every += inside[0] + (eqn.primitive.name == "while")
+        innermost += inside[1] + (eqn.primitive.name == "while" and inside[0] == 0)
+    return every, innermost
 
 
 @pytest.mark.parametrize("loss, scale", [("linear", None), ("cauchy", None), ("cauchy", 1e-5), ("huber", None)])
 def test_robust_passes_are_one_compiled_solve(loss, scale):
     """A robust fit's passes (robust solves, then least squares without the outliers)
     run in a loop around one solve, so its program holds one solver, as a least-squares
-    fit's does, not one per pass (a cold robust `px.fit` of the MMT run: 12.6 s -> 6 s)."""
-    from pointax.fitting.core import fit_core
+    fit's does, not one per pass (a cold robust `px.fit` of the MMT run: 12.6 s -> 6 s).
+    Traced as px.fit runs it: the robust settings as arguments."""
+    from pointax.fitting.core import RobustSettings, fit_core
 
     model = _model()
     obs = px.simulate(model, encoder_grid(4, (25, 45, 65, 85)), noise=ARCSEC, seed=3)
     options = FitOptions(loss=loss, loss_scale=scale)
-    jaxpr = jax.make_jaxpr(lambda o: fit_core(model, free_mask(model), o, options))(obs)
-    assert _solver_loops(jaxpr.jaxpr) == 1
+    run = lambda o, robust: fit_core(model, free_mask(model), o, options.compiled(), robust)  # noqa: E731
+    every, solves = _loops(jax.make_jaxpr(run)(obs, RobustSettings.of(options)).jaxpr)
+    assert solves == 1 and every == (1 if loss == "linear" else 2)
+
+
+def test_another_loss_scale_or_reject_refits_without_compiling(dirty, reference):
+    """A robust fit's loss, scale and rejection threshold are data of its compiled
+    program: after one robust fit, each of them changed compiles nothing, and each
+    takes effect (the injected outliers for another loss, none beyond a lenient
+    threshold: then the plain least-squares fit of every row; a given scale as the
+    same settings compiled as constants give)."""
+    px.fit(_model(), dirty, loss="cauchy")
+    with COUNTER:
+        huber = px.fit(_model(), dirty, loss="huber")
+        scaled = px.fit(_model(), dirty, loss="soft_l1", loss_scale=2 * ARCSEC, reject=2.5)
+        lenient = px.fit(_model(), dirty, loss="cauchy", reject=1000.0)
+    assert COUNTER.count == 0
+    assert (huber.loss, huber.reject, scaled.loss, scaled.reject, lenient.reject) == ("huber", 3.0, "soft_l1", 2.5, 1000.0)
+    assert huber.outlier_indices() == sorted(OUTLIERS)
+    np.testing.assert_allclose(np.asarray(huber.values), np.asarray(reference.values), rtol=0, atol=1e-9)
+    assert lenient.outlier_indices() == [] and "0 outlier(s) beyond 1000 sigma" in lenient.report()
+    plain = px.fit(_model(), dirty)
+    np.testing.assert_allclose(np.asarray(lenient.values), np.asarray(plain.values), rtol=0, atol=1e-10)
+    options = FitOptions(loss="soft_l1", loss_scale=2 * ARCSEC, reject=2.5)
+    constants = jax.jit(lambda o: fit_model(_model(), o, options))(dirty)
+    np.testing.assert_array_equal(scaled.outliers, np.asarray(constants.outliers))
+    np.testing.assert_allclose(np.asarray(scaled.values), np.asarray(constants.values), rtol=0, atol=1e-11)
+    assert "beyond 2.5 sigma" in scaled.report()

@@ -29,6 +29,8 @@ from ..core.lazy import lazy_namespace
 # the option names in :mod:`.options` without importing JAX).
 _EXPORTS = {
     "LOSSES": "core",
+    "ROBUST_LOSSES": "core",
+    "RobustSettings": "core",
     "SOLVERS": "core",
     "site_statuses": "batch",
     "observation_residuals": "masking",
@@ -76,6 +78,8 @@ __all__ = [
     "LOSSES",
     "LOSS_NAMES",
     "RAYLEIGH_MEDIAN",
+    "ROBUST_LOSSES",
+    "RobustSettings",
     "SOLVERS",
     "SOLVER_NAMES",
     "Statistics",

@@ -12,17 +12,21 @@ Robust fits (``loss`` 'cauchy', 'huber' or 'soft_l1') minimise ``sum_i rho(|r_i|
 with the scale chosen from the data, flag observations whose residual exceeds
 ``reject`` robust standard deviations as outliers, and finish with a plain
 least-squares fit of the rest, so values, sigmas and statistics keep TPOINT's meaning.
+The loss, its scale and ``reject`` are arrays (:class:`RobustSettings`), so one compiled
+robust fit serves every choice of them.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from collections.abc import Iterator, Mapping
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float
+from jaxtyping import Array, Bool, Float, Int
 
 from ..core.model import Model
 from ..core.observations import Observations
@@ -34,12 +38,16 @@ from .statistics import Statistics, normalised_weights, robust_sigma, statistics
 __all__ = [
     "SOLVERS",
     "LOSSES",
+    "ROBUST_LOSSES",
+    "RobustSettings",
+    "robust_rho",
     "fit_core",
     "least_squares",
     "gauss_newton_step",
     "linearised_change",
     "LinearisedStep",
     "fit_result",
+    "labelled",
     "restrict",
     "free_mask",
     "result_from_covariance",
@@ -85,6 +93,37 @@ def _rho_soft_l1(z, c2):
 LOSSES = {"linear": None, "huber": _rho_huber, "soft_l1": _rho_soft_l1, "cauchy": _rho_cauchy}
 """Loss name -> ``rho(z, c^2)`` of the squared residual norm ``z`` (as scipy's
 ``least_squares`` defines them, scaled by ``c^2``); 'linear' is plain least squares."""
+
+ROBUST_LOSSES = ("huber", "soft_l1", "cauchy")
+"""The robust losses in the order :attr:`RobustSettings.loss` numbers them."""
+
+
+class RobustSettings(NamedTuple):
+    """A robust fit's loss, soft margin and rejection threshold as arrays: data of a
+    compiled fit, not part of its structure (:meth:`pointax.FitOptions.compiled`), so
+    that another loss, scale or threshold refits without compiling. A least-squares fit
+    ignores them."""
+
+    loss: Int[Array, ""]
+    """Index of the loss in :data:`ROBUST_LOSSES`."""
+    scale: Float[Array, ""]
+    """The soft margin, radians; 0: automatic (twice the robust standard deviation of
+    the residuals, re-estimated after a first robust pass)."""
+    reject: Float[Array, ""]
+    """Observations beyond this many robust standard deviations are outliers."""
+
+    @classmethod
+    def of(cls, options: FitOptions) -> "RobustSettings":
+        """``options``' loss, ``loss_scale`` (None: 0, automatic) and ``reject`` as NumPy
+        scalars (a least-squares fit's loss: index 0, unused)."""
+        loss = ROBUST_LOSSES.index(options.loss) if options.robust else 0
+        return cls(np.int32(loss), np.float64(options.loss_scale or 0.0), np.float64(options.reject))
+
+
+def robust_rho(loss: Int[Array, ""], z, c2):
+    """``rho(z, c^2)`` of the robust loss numbered ``loss`` in :data:`ROBUST_LOSSES` (an
+    array: under ``vmap`` each site may have its own)."""
+    return jax.lax.switch(loss, [LOSSES[name] for name in ROBUST_LOSSES], z, c2)
 
 
 def free_mask(model: Model) -> np.ndarray:
@@ -137,19 +176,26 @@ def least_squares(
     return sol, scaled
 
 
-def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: FitOptions) -> FitResult:
+def fit_core(
+    model: Model, free: Bool[Array, " m"], obs: Observations, options: FitOptions, robust: RobustSettings | None = None
+) -> FitResult:
     """Fit the ``free`` parameters of ``model`` (pure JAX: jit, vmap, lax.map).
+
+    ``robust`` (arrays) gives a robust fit's loss, scale and threshold in place of
+    ``options``' (whose ``robust`` alone then chooses least squares or robust): how
+    :func:`pointax.fit` runs one compiled robust fit for all of them, with
+    :meth:`pointax.FitOptions.compiled` as the structure.
 
     Returns a :class:`FitResult` over *every* parameter of the model (``names`` all of
     them): fixed ones keep their values, with sigma 0 and no correlation meaning;
-    :func:`restrict` turns it into the result for the free ones.
+    :func:`restrict` turns it into the result for the free ones. Its ``loss`` and
+    ``reject`` are ``options``'.
     """
     free = jnp.asarray(free, bool)
     given = obs.weight > 0
     problem = define_problem(model, obs, free)  # what the observations fix, once for every pass
     weight = normalised_weights(obs.weight, given)
-    rho = LOSSES[options.loss]
-    if rho is None:
+    if not options.robust:
         used = given
         sol, _ = least_squares(model, free, problem, weight, options)
         y_solver = jnp.where(free, sol.value, model.values("all"))
@@ -157,7 +203,10 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         outliers = jnp.zeros(given.shape, bool)
         scale, robust_ok = jnp.asarray(0.0), jnp.asarray(True)
     else:
-        y_solver, iterations, result, outliers, scale, robust_ok = _robust_passes(model, free, problem, obs.weight, weight, options)
+        settings = RobustSettings.of(options) if robust is None else robust
+        y_solver, iterations, result, outliers, scale, robust_ok = _robust_passes(
+            model, free, problem, obs.weight, weight, options, settings
+        )
         used = given & ~outliers
         weight = normalised_weights(obs.weight, used)
     # One Gauss-Newton step from the solver's answer (exact for residuals affine in the
@@ -189,7 +238,7 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
         status=status,
         solver=options.solver,
         loss=options.loss,
-        reject=options.reject if rho is not None else 0.0,
+        reject=options.reject if options.robust else 0.0,
         outliers=outliers,
         robust_scale=scale,
         robust_converged=robust_ok,
@@ -197,23 +246,23 @@ def fit_core(model: Model, free: Bool[Array, " m"], obs: Observations, options: 
     )
 
 
-def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, options: FitOptions):
+def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, options: FitOptions, settings: RobustSettings):
     """The passes of a robust fit: the robust solves (two when the scale is automatic:
     the first from the scale of the starting model's residuals, which may be large, the
     second from the fit's), then the least-squares solve of the observations not
-    flagged as outliers after them. One ``lax.fori_loop`` around one solve, so that the
-    solver is compiled once, not once per pass (a robust fit's program is then about
-    the size of a least-squares one).
+    flagged as outliers after them. One loop around one solve, so that the solver is
+    compiled once, not once per pass (a robust fit's program is then about the size of
+    a least-squares one); its length is data, as the loss is (``settings``).
 
     ``raw_weight`` ``(n,)`` the observations' own weights (0: not used), ``weight``
     those normalised over the observations used. Returns ``(y, iterations, status of
     the last solve, outliers, robust scale, every robust solve succeeded)``; ``y``
     ``(M,)`` every parameter, model order.
     """
-    rho = LOSSES[options.loss]
+    rho = functools.partial(robust_rho, settings.loss)
     given = raw_weight > 0
-    auto = options.loss_scale is None
-    n_robust = 2 if auto else 1
+    auto = settings.scale <= 0
+    n_robust = jnp.where(auto, 2, 1)
     # Residuals are judged weighted (sqrt(w) r, the quantity the loss sees), so a
     # down-weighted observation is not rejected for being imprecise.
     sqrt_w = jnp.sqrt(weight)[:, None]
@@ -222,14 +271,14 @@ def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, opt
         y, iterations, _, outliers, scale, robust_ok = carry
         robust = k < n_robust
         # Soft margin c: two robust sigmas unless given.
-        c2 = jnp.maximum((2 * scale) ** 2 if auto else jnp.asarray(options.loss_scale) ** 2, 1e-30)
+        c2 = jnp.maximum(jnp.where(auto, 2 * scale, settings.scale) ** 2, 1e-30)
         w = jnp.where(robust, weight, normalised_weights(raw_weight, given & ~outliers))
         sol, _ = least_squares(model.with_values(y), free, problem, w, options, rho, c2, robust=robust)
         y = jnp.where(free, sol.value, y)
         status = solver_status(sol.result)
         rw = problem.residuals(model.with_values(y)) * sqrt_w
         new_scale = robust_sigma(rw, given)
-        flagged = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > options.reject * new_scale)
+        flagged = given & (jnp.sqrt(jnp.sum(rw**2, axis=-1)) > settings.reject * new_scale)
         return (
             y,
             iterations + sol.stats["num_steps"],
@@ -352,7 +401,13 @@ def fit_result(
     )
 
 
-def result_structure(model: Model, free, obs: Observations, options: FitOptions):
+def labelled(result: FitResult, options: FitOptions) -> FitResult:
+    """``result``, of a fit compiled for ``options.compiled()`` with ``options``'
+    :class:`RobustSettings` as data, labelled with ``options``' own ``loss`` and ``reject``."""
+    return dataclasses.replace(result, loss=options.loss, reject=options.reject if options.robust else 0.0)
+
+
+def result_structure(model: Model, free, obs: Observations, robust: RobustSettings, options: FitOptions):
     """The pytree structure of :func:`fit_core`'s result, built without tracing it (for
     :mod:`pointax.fitting.programs`; checked there against the traced one)."""
     return fit_result_structure(model, model.parameters, options)

@@ -9,6 +9,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ..core.precision import float64
+from .core import RobustSettings, labelled
 from .options import FitOptions
 from .residuals import residuals
 from .result import FitResult
@@ -55,14 +56,14 @@ def _fold_done(_=None) -> None:
 
 
 @eqx.filter_jit
-def _leave_one_out(model, obs, options: FitOptions, ticks: bool = False):
+def _leave_one_out(model, obs, robust: RobustSettings, options: FitOptions, ticks: bool = False):
     n = obs.weight.shape[0]
     masks = 1.0 - jnp.eye(n, dtype=obs.weight.dtype)
     taking_part = obs.weight > 0
 
     def one_fold(mask):
         fold_obs = eqx.tree_at(lambda o: o.weight, obs, obs.weight * mask)
-        fold = fit_model(model, fold_obs, options)
+        fold = fit_model(model, fold_obs, options, robust=robust)
         if ticks:  # a host callback per fold moves the bar while the compiled loop runs
             jax.debug.callback(_fold_done, fold.iterations)
         return fold
@@ -132,7 +133,9 @@ def leave_one_out(
     bar = progress_bar(len(obs.weight), "leave-one-out", "fold", enabled=progress)
     _BARS.append(bar)
     try:
-        offsets, folds = _leave_one_out(model, obs, options, bar.active)
+        # The robust settings as data: another loss or reject runs the same program.
+        offsets, folds = _leave_one_out(model, obs, RobustSettings.of(options), options.compiled(), bar.active)
+        folds = labelled(folds, options)
         jax.block_until_ready(folds.converged)
         jax.effects_barrier()  # every fold's callback has run
     finally:

@@ -21,7 +21,7 @@ LOSS_NAMES = ("linear", "huber", "soft_l1", "cauchy")
 
 @dataclasses.dataclass(frozen=True)
 class FitOptions:
-    """How a fit runs (hashable: it is part of a compiled fit's structure).
+    """How a fit runs (hashable: :meth:`compiled` is part of a compiled fit's structure).
 
     Attributes:
         solver: 'lm' (Levenberg-Marquardt, default), 'gauss-newton' or 'dogleg'.
@@ -79,6 +79,14 @@ class FitOptions:
     def robust(self) -> bool:
         """Whether the loss is a robust one (outliers are flagged)."""
         return self.loss != "linear"
+
+    def compiled(self) -> "FitOptions":
+        """What a compiled fit's program depends on: these options with the robust loss,
+        its scale and the rejection threshold at fixed stand-ins (``loss`` 'cauchy' for any
+        robust loss). Those three are data of the program
+        (:class:`pointax.fitting.core.RobustSettings`), so that another loss, scale or
+        ``reject`` refits without compiling; only least squares against robust is structure."""
+        return FitOptions(self.solver, self.max_steps, self.rtol, self.atol, "cauchy" if self.robust else "linear")
 
     def replace(self, **changes) -> "FitOptions":
         """A copy with some options changed (checked again)."""

@@ -2,8 +2,9 @@
 
 The model is embedded in its family's union (:mod:`pointax.fitting.structure`), so a
 refit after USE, LOSE, FIX or MASK (other terms, other fixed parameters or values,
-other weights) runs the fit already compiled: only a new term class, mount, residual
-form, data shape or option compiles again.
+other weights) runs the fit already compiled, as does another robust loss, scale or
+rejection threshold (:class:`pointax.fitting.core.RobustSettings`): only a new term
+class, mount, residual form, data shape or solver option compiles again.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ..core.precision import float64
 from ..core.model import Model
 from ..core.observations import Observations
 from . import programs, xla_options
-from .core import fit_core, free_mask, restrict, result_structure
+from .core import RobustSettings, fit_core, free_mask, labelled, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
 from .ranges import wrap_periodic
@@ -42,12 +43,15 @@ def options_from(options: FitOptions | None, **kwargs) -> FitOptions:
     return options
 
 
-def fit_model(model: Model, obs: Observations, options: FitOptions, caption: str = "") -> FitResult:
+def fit_model(
+    model: Model, obs: Observations, options: FitOptions, caption: str = "", robust: RobustSettings | None = None
+) -> FitResult:
     """The whole fit of ``model``'s free parameters, pure JAX (jit-, vmap- and
     lax.map-able): :func:`pointax.fitting.core.fit_core` with the model's own fixed
-    names as the mask, restricted to its free parameters."""
+    names as the mask (and ``robust``, the robust settings as arrays, if given),
+    restricted to its free parameters."""
     free = free_mask(model)
-    full = fit_core(model, free, obs, options)
+    full = fit_core(model, free, obs, options, robust)
     return restrict(full, np.flatnonzero(free), model, caption)
 
 
@@ -58,9 +62,15 @@ def _fit_core_jit():
     to a smaller executable that runs about as fast)."""
 
     def run(dynamic, static, options):
-        return fit_core(*eqx.combine(dynamic, static), options)
+        return _fit_program(*eqx.combine(dynamic, static), options)
 
     return xla_options.jit(run, static_argnums=(1, 2))
+
+
+def _fit_program(model: Model, free, obs: Observations, robust: RobustSettings, options: FitOptions) -> FitResult:
+    """:func:`fit_core` with the options last, as the compiled fit takes them (the
+    arrays, then the structure: ``options.compiled()``)."""
+    return fit_core(model, free, obs, options, robust)
 
 
 @float64
@@ -113,7 +123,8 @@ def fit(
             free parameters, where every sigma would be 0 (:func:`check_enough_data`).
 
     Changing the terms, the fixed parameters or their values, or the weights does not
-    compile the fit again (:mod:`pointax.fitting.structure`).
+    compile the fit again (:mod:`pointax.fitting.structure`), nor does another robust
+    loss, ``loss_scale`` or ``reject`` (only least squares against robust does).
     """
     options = options_from(
         options, solver=solver, max_steps=max_steps, rtol=rtol, atol=atol, loss=loss, loss_scale=loss_scale, reject=reject
@@ -125,13 +136,14 @@ def fit(
     embedding = embed(model)
     n = len(obs)
     padded = pad_observations(obs, fit_bucket(n))
+    # The robust settings are data: another loss, scale or reject runs the same program.
+    args = (embedding.model, embedding.free, padded, RobustSettings.of(options))
     if programs.directory() is not None:  # traced programs kept on disk
-        args = (embedding.model, embedding.free, padded)
-        full = programs.call("fit_core", fit_core, args, options, result_structure, fast_compile=True)
+        full = programs.call("fit_core", _fit_program, args, options.compiled(), result_structure, fast_compile=True)
     else:
-        dynamic, static = eqx.partition((embedding.model, embedding.free, padded), eqx.is_array)
-        full = _fit_core_jit()(dynamic, static, options)
-    full = first_rows(jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, full), n)
+        dynamic, static = eqx.partition(args, eqx.is_array)
+        full = _fit_core_jit()(dynamic, static, options.compiled())
+    full = first_rows(jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, labelled(full, options)), n)
     # An encoder zero that ended a turn away is reported in its range (same model).
     return wrap_periodic(restrict(full, embedding.index, model, caption, numpy=True))
 
