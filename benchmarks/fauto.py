@@ -32,7 +32,7 @@ import jax
 import numpy as np
 
 import pointax as px
-from pointax.analysis.fauto import fauto
+from pointax.analysis.fauto_search import fauto
 from pointax.terms.linear import NotYetInPointax
 
 HERE = Path(__file__).resolve().parent

@@ -1,4 +1,4 @@
-"""TPOINT-style FAUTO (pointax.analysis.fauto), against independent references:
+"""TPOINT-style FAUTO (pointax.analysis.fauto_search), against independent references:
 * on a simulated alt-az run with the eight basic terms and two harmonics, FAUTO adds
   exactly those harmonics, every value is within 4 sigma of the truth, no term it adds
   has a column nearly collinear (NumPy's correlation of the least-squares problem) with
@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 import pointax as px
-from pointax.analysis.fauto import fauto, harmonic_candidates
+from pointax.analysis.fauto_search import fauto, harmonic_candidates
 from pointax.cli import main
 from pointax.cli.compare import parse_families
 from pointax.io.tpoint_model import read_model
@@ -119,7 +119,7 @@ def test_fauto_is_deterministic(altaz, monkeypatch):
     # Every candidate here has one parameter: all screened together in NumPy, none by
     # the per-candidate compiled step (the vectorised screen's speed, benchmarks/fauto_notes.md).
     calls = []
-    module = sys.modules["pointax.analysis.fauto"]
+    module = sys.modules["pointax.analysis.fauto_search"]
     per_candidate = module._Search.screen
     monkeypatch.setattr(module._Search, "screen", lambda *a: calls.append(1) or per_candidate(*a))
     again = fauto(obs)
@@ -250,7 +250,7 @@ def test_compare_passes_the_fauto_orders_to_fauto(monkeypatch):
 
     from pointax.cli.compare import _fauto_families, add_compare_parser
 
-    fauto_module = importlib.import_module("pointax.analysis.fauto")  # the module, not the function
+    fauto_module = importlib.import_module("pointax.analysis.fauto_search")
 
     parser = argparse.ArgumentParser(prog="pointax")
     add_compare_parser(parser.add_subparsers(dest="command"))
@@ -323,7 +323,7 @@ def test_fauto_finds_a_planted_product_harmonic():
     once) gives the per-candidate compiled screen's figures at every step."""
     import sys
 
-    module = sys.modules["pointax.analysis.fauto"]
+    module = sys.modules["pointax.analysis.fauto_search"]
     values = {**{k: TRUTH[k] for k in BASIC}, "HSCA2CE2": 3.0}
     truth = px.AltAz(tpoint(list(values), values={k: v * ARCSEC for k, v in values.items()}))
     rng = np.random.default_rng(8)
@@ -363,7 +363,7 @@ def test_fauto_finds_a_planted_product_harmonic():
 
 
 def test_product_candidates():
-    from pointax.analysis.fauto import product_candidates
+    from pointax.analysis.fauto_search import product_candidates
 
     two = product_candidates("altaz", 2)
     assert len(two) == 12 * 4 and two[:4] == ("HASASE", "HASACE", "HACASE", "HACACE")
@@ -391,7 +391,7 @@ def test_an_exchange_puts_the_planted_term_in_place_of_its_stand_in(altaz, monke
     import sys
 
     obs, _ = altaz
-    builder = sys.modules["pointax.analysis.fauto"].Builder
+    builder = sys.modules["pointax.analysis.fauto_search"].Builder
     refits = []
     refit = builder.state
     monkeypatch.setattr(builder, "state", lambda self, active, y0: refits.append(active) or refit(self, active, y0))
@@ -428,7 +428,7 @@ def test_an_exchange_never_swaps_a_term_for_one_it_cannot_be_told_apart_from(alt
     assert f.added == ("HASA2", "HECE3")
     assert "HSSA2CE" not in [s.term for s in f.steps]
     assert ("HSSA2CE", "HASA2") in [(c, t) for c, t, _ in f.mimics]
-    monkeypatch.setattr(sys.modules["pointax.analysis.fauto"]._Search, "twins", lambda *args: set())
+    monkeypatch.setattr(sys.modules["pointax.analysis.fauto_search"]._Search, "twins", lambda *args: set())
     swapped = fauto(obs, **_EXCHANGE_TRIAL)
     assert ("exchange", "add", "HSSA2CE") in [(s.stage, s.action, s.term) for s in swapped.steps]
     assert swapped.added == ("HECE3", "HSSA2CE")
@@ -440,7 +440,7 @@ def test_each_state_is_linearised_once_for_its_screens(altaz, monkeypatch):
     import sys
 
     obs, _ = altaz
-    module = sys.modules["pointax.analysis.fauto"]
+    module = sys.modules["pointax.analysis.fauto_search"]
     asked, computed, inside = [], [], []
     jacobian, linearise = module._Search.jacobian, module.Builder.linearise
 

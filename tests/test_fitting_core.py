@@ -217,8 +217,9 @@ def test_use_lose_fix_mask_do_not_recompile_in_either_form(run):
 
 
 # A fit in a fresh process with the caches on (POINTAX_JAX_CACHE), printing what the
-# stored programs did, the values, and which of the solver and term libraries that an
-# alt-az fit does not need it imported; ``other-jax`` pretends another JAX version.
+# stored programs did, the values, and which of the solver and term libraries (and the
+# model families) that an alt-az fit and its listing do not need it imported;
+# ``other-jax`` pretends another JAX version.
 _FRESH_FIT = (
     "import json, sys, pointax as px\n"
     "from pointax.fitting import programs\n"
@@ -227,7 +228,9 @@ _FRESH_FIT = (
     "    programs._VERSIONS[:] = [programs._versions().replace('jax=', 'jax=0.0.0+other ')]\n"
     f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
     "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
-    "lazy = ('optimistix', 'lineax') + tuple('pointax.terms.' + m for m in ('equatorial', 'gpoint', 'xy'))\n"
+    "from pointax.analysis.listing import observation_entries  # as pointax fit --json\n"
+    "lazy = ('optimistix', 'lineax', 'pointax.analysis.families')\n"
+    "lazy += tuple('pointax.terms.' + m for m in ('equatorial', 'gpoint', 'xy'))\n"
     "solvers = sorted(m for m in lazy if m in sys.modules)\n"
     "print(json.dumps({'stats': programs.STATS, 'values': [float(v) for v in r.values], 'solvers': solvers}))\n"
 )
@@ -272,7 +275,8 @@ def test_a_fresh_process_loads_the_traced_fit(stored_fit, tmp_path):
     assert first["stats"]["exported"] == 1 and first["stats"]["stored"] == 1 and first["stats"]["loaded"] == 0
     second, err = _fresh_fit(cache)
     assert second["stats"]["exported"] == 0 and second["stats"]["loaded"] == 1 and "unreadable" not in err
-    # Neither the solvers nor the term classes an alt-az fit does not use.
+    # Neither the solvers nor the term classes an alt-az fit does not use, nor the
+    # families that analysis's package once imported with the listing.
     assert first["solvers"] == ["lineax", "optimistix"] and second["solvers"] == []
     assert second["values"] == first["values"]
     assert [p.suffix for p in folder.iterdir()] == [".program"]

@@ -5,7 +5,7 @@ automatic model building.
     pointax/analysis/folds.py           out-of-sample schemes: holdout sets, k-fold cross-validation
     pointax/analysis/families.py        model families by name (X-Y paper families, TPOINT alt-az sets)
     pointax/analysis/comparison.py      compare(): families side by side, the paper's Table 3
-    pointax/analysis/fauto.py           fauto(): TPOINT-style FAUTO: physical terms, then harmonics, by significance
+    pointax/analysis/fauto_search.py    fauto(): TPOINT-style FAUTO: physical terms, then harmonics, by significance
     pointax/analysis/model_building.py  build_model(): grow and prune a model term by term, by cross-validation
     pointax/analysis/building_fits.py   build_model's least-squares fits over masks of terms and rows
 
@@ -15,14 +15,39 @@ automatic model building.
 
 from __future__ import annotations
 
-from .building_fits import STEP_TOLERANCE
-from .comparison import BEFORE, Comparison, FamilyStats, compare
-from .fauto import FAUTO_PHYSICAL, Fauto, FautoStep, fauto, harmonic_candidates
-from .families import ALTAZ_FAMILIES, ALTAZ_HARMONICS, EQUATORIAL_FAMILIES, EQUATORIAL_HARMONICS, family_model
-from .folds import fold_indices, holdout_indices
-from .model_building import BuildStep, ModelBuild, build_model
-from ..fitting.statistics import AxisRMS, axis_rms, information_criteria
-from .per_axis import PER_AXIS
+from ..core.lazy import lazy_namespace
+
+# Public name -> the module that defines it, loaded on first use: ``pointax fit`` reads
+# the residual listing (:mod:`.listing`) without the families' term libraries.
+_EXPORTS = {
+    "STEP_TOLERANCE": "building_fits",
+    "BEFORE": "comparison",
+    "Comparison": "comparison",
+    "FamilyStats": "comparison",
+    "compare": "comparison",
+    "FAUTO_PHYSICAL": "fauto_search",
+    "Fauto": "fauto_search",
+    "FautoStep": "fauto_search",
+    "fauto": "fauto_search",
+    "harmonic_candidates": "fauto_search",
+    "ALTAZ_FAMILIES": "families",
+    "ALTAZ_HARMONICS": "families",
+    "EQUATORIAL_FAMILIES": "families",
+    "EQUATORIAL_HARMONICS": "families",
+    "family_model": "families",
+    "fold_indices": "folds",
+    "holdout_indices": "folds",
+    "BuildStep": "model_building",
+    "ModelBuild": "model_building",
+    "build_model": "model_building",
+    "PER_AXIS": "per_axis",
+    # the per-axis statistics, defined with the fits' own (a path relative to this package)
+    "AxisRMS": ".fitting.statistics",
+    "axis_rms": ".fitting.statistics",
+    "information_criteria": ".fitting.statistics",
+}
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS)
 
 __all__ = [
     "ALTAZ_FAMILIES",

@@ -304,7 +304,7 @@ def _fauto_families(families: dict[str, str], obs, args):
     wanted = [label for label, spec in families.items() if spec.strip().lower() == FAUTO_FAMILY]
     if not wanted:
         return None
-    from ..analysis.fauto import fauto
+    from ..analysis.fauto_search import fauto
 
     built = fauto(obs, max_order=args.fauto_order, max_product_order=args.fauto_products, form=args.form)
     names = " ".join(t.name for t in built.model.terms)

@@ -292,8 +292,8 @@ def cmd_unmask(s: Session, args: list[str], line: Line) -> None:
 
 def _fauto_start(s: Session):
     """FAUTO's start model: the terms in use, then the mount's basic physical terms not
-    in use (:data:`pointax.analysis.fauto.FAUTO_PHYSICAL`), at their current values."""
-    from ..analysis.fauto import FAUTO_PHYSICAL
+    in use (:data:`pointax.analysis.FAUTO_PHYSICAL`), at their current values."""
+    from ..analysis.fauto_search import FAUTO_PHYSICAL
     from ..terms import tpoint
 
     run = s.require_run()
@@ -330,7 +330,7 @@ def cmd_fauto(s: Session, args: list[str], line: Line) -> None:
     tried and the terms in use kept); prints the steps, weak outlier candidates and pairs
     not reliably distinguished, on the unmasked stars.
     FAUTO CV [NAME ...]: the cross-validated builder (:func:`pointax.build_model`) instead."""
-    from ..analysis.fauto import fauto
+    from ..analysis.fauto_search import fauto
 
     s.require_run()  # raises when no run is loaded
     rows = np.flatnonzero(s.observations().weight > 0)
