@@ -10,14 +10,12 @@ from __future__ import annotations
 
 import io
 
-import equinox as eqx
-import jax
 import numpy as np
 import pytest
+import tpoint_numpy as ref
 from compile_counter import traces
 
 import pointax as px
-from pointax.core.precision import float64
 from pointax.fitting.batch import COMPILING, _chunk_plan, observation_bucket
 from pointax.fitting.progress import progress_bar
 from pointax.terms import tpoint
@@ -30,10 +28,11 @@ def _encoder(rng, n):
 
 
 def _network(spec: str, sizes, seed=0):
-    """Sites of an alt-az mount fitted in TPOINT's form (affine in its parameters), each
-    with its own true values and ``sizes[k]`` observations."""
+    """Sites of an alt-az mount, TPOINT's terms in their linear forms fitted in TPOINT's
+    residual form (affine in the parameters), each with its own true values and
+    ``sizes[k]`` observations."""
     rng = np.random.default_rng(seed)
-    model = px.AltAz(tpoint(spec), residual_form="tpoint")
+    model = px.AltAz(tpoint(spec, form="linear"), residual_form="tpoint")
     sites = []
     for k, n in enumerate(sizes):
         truth = model.with_values(rng.normal(0, px.arcsec(60), len(model.free_parameters)), "free")
@@ -41,24 +40,13 @@ def _network(spec: str, sizes, seed=0):
     return model, sites
 
 
-@float64
-def _dense_fit(model, obs) -> np.ndarray:
+def _dense_fit(spec: str, obs) -> np.ndarray:
     """The least-squares solution of one site on its own rows (no padding, no fast
-    pass): Gauss-Newton with ``J`` from forward-mode autodiff and NumPy's ``lstsq``."""
-    from pointax.fitting.problem import site_data, site_residuals
-
-    def residuals(y, obs):
-        fitted = model.replace_parameters(model.free_parameters, [y[k] for k in range(len(y))])
-        return jax.numpy.concatenate(site_residuals(fitted, site_data(model, obs)))
-
-    # One compiled program per site (op by op, the sites' sizes made it hundreds of
-    # small compilations per test).
-    linearised = eqx.filter_jit(lambda y, obs: (jax.jacfwd(residuals)(y, obs), residuals(y, obs)))
-    y = np.zeros(len(model.free_parameters))
-    for _ in range(6):  # Gauss-Newton to convergence (dense, NumPy's lstsq each step)
-        jac, r = linearised(y, obs)
-        y = y + np.linalg.lstsq(np.asarray(jac), -np.asarray(r), rcond=None)[0]
-    return y
+    pass): NumPy's ``lstsq`` of TPOINT's design matrix (tests/tpoint_numpy.py), the
+    terms' linear forms fitted in TPOINT's residual form being affine."""
+    t = np.asarray(obs.target)
+    observed = np.stack([np.arctan2(t[:, 0], t[:, 1]), np.arcsin(t[:, 2])], axis=-1)  # N-E azimuth
+    return ref.lstsq(spec.split(), observed, np.asarray(obs.encoder), np.ones(len(obs), bool))
 
 
 def test_observation_buckets():
@@ -97,7 +85,8 @@ def test_simulate_compiles_once_for_50_sites_of_30_to_80_observations():
 def test_fit_batch_compiles_once_for_sizes_30_to_80_and_equals_the_dense_fits():
     rng = np.random.default_rng(7)
     sizes = [int(n) for n in rng.integers(30, 81, 50)]
-    model, sites = _network("IA IE CA NPAE AN AW TF", sizes)
+    spec = "IA IE CA NPAE AN AW TF"
+    model, sites = _network(spec, sizes)
     with traces() as seen:
         result = px.fit_batch(model, px.stack_observations(sites))
     fitted = [name for name in seen if name in _FIT_PROGRAMS]
@@ -106,7 +95,7 @@ def test_fit_batch_compiles_once_for_sizes_30_to_80_and_equals_the_dense_fits():
     assert np.asarray(result.residuals).shape == (50, max(sizes), 2)
     values = np.asarray(result.values)
     for k in range(0, 50, 7):
-        reference = _dense_fit(model, sites[k])
+        reference = _dense_fit(spec, sites[k])
         np.testing.assert_allclose(values[k], reference, rtol=0, atol=1e-12 * np.max(np.abs(reference)) + 1e-15)
         assert int(result.n_obs[k]) == sizes[k]
 

@@ -10,7 +10,7 @@
 * a site with many observations is moved by less than its sigma, one with few by much
   more; the population of a simulated network is recovered within its sampling error;
 * new data values run the same compiled program; a nonlinear fit's program holds one
-  EM and two linearisations of the residuals, whatever its number of steps.
+  EM and one linearisation of the residuals, whatever its number of steps.
 """
 
 from __future__ import annotations
@@ -308,19 +308,82 @@ def _turntable_starts(obs) -> np.ndarray:
     return np.array([[0.0, 0.0, 0.0, *estimate_zeros(np.asarray(o.encoder), np.asarray(o.target))] for o in obs])
 
 
-def test_nonlinear_map_equals_scipy_least_squares():
-    """A sky-form turntable (alpha0 per site): the pooled values are the MAP of the
-    population the fit ended at, as scipy finds it on the plain residuals (px.residuals)
-    plus the prior's rows."""
-    obs = [_turntable_site(n, 70 + k)[0] for k, n in enumerate([6, 8, 12, 20, 40])]
-    starts = _turntable_starts(obs)
-    model = px.Turntable("full")
-    fit = px.fit_pooled(
-        model, px.stack_observations(obs), values=starts, unpooled=("alpha0",), covariance="diagonal", tol=1e-12
-    )
+# Five sites padded to 60 rows, encoder zeros per site, a full covariance: the shapes and
+# structure of the example network's pooled fit (examples/data/network, the command-line
+# test below), so that this module compiles one nonlinear pooled program.
+TURNTABLE_SIZES = (6, 8, 12, 20, 60)
+TURNTABLE_UNPOOLED = ("alpha0", "beta0")
+
+
+def _pooled_turntables(obs, starts, **options):
+    return px.fit_pooled(
+        px.Turntable("full"), px.stack_observations(obs), values=starts, unpooled=TURNTABLE_UNPOOLED,
+        covariance="full", **options,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def turntables():
+    """The simulated turntable network: ``(observations per site, start values)``."""
+    obs = [_turntable_site(n, 70 + k)[0] for k, n in enumerate(TURNTABLE_SIZES)]
+    return obs, _turntable_starts(obs)
+
+
+@pytest.fixture(scope="module")
+def first_nonlinear_fit(turntables):
+    """The module's first nonlinear pooled fit (two steps), traced with the fit's
+    linearisations and EMs counted: ``(names traced, calls counted, result)``. Every
+    test that fits the turntables asks for it, so it traces the program whatever the
+    order the tests run in."""
+    from pointax.fitting import pooled
+
+    called = {"_linearise": 0, "_em": 0}
+    with pytest.MonkeyPatch.context() as patch:
+        for name in called:
+            original = getattr(pooled, name)
+
+            def counted(*args, _original=original, _name=name, **kwargs):
+                called[_name] += 1  # inside the compiled fit: runs when it is traced
+                return _original(*args, **kwargs)
+
+            patch.setattr(pooled, name, counted)
+        with traces() as seen:
+            two = _pooled_turntables(*turntables, steps=2)
+    return set(seen), dict(called), two
+
+
+def test_a_nonlinear_fit_compiles_one_em_and_one_linearisation(turntables, first_nonlinear_fit):
+    """The rounds of a nonlinear pooled fit, the start's linearisation and the last
+    Gauss-Newton steps included, are one loop: its program holds one linearisation of
+    the residuals and one EM, at any number of steps (copies of them before and after
+    the loop doubled its compiling). The number of steps and EM's iteration limit are
+    data: other counts run the same program (nothing traced, nothing compiled) and take
+    the steps and the limit asked for (counted in EM updates)."""
+    seen, called, two = first_nonlinear_fit
+    assert "_pooled_fit" in seen  # traced there, so the counts are of this program
+    assert called == {"_linearise": 1, "_em": 1}, called
+    with traces() as seen, COUNTER as compiled:
+        five = _pooled_turntables(*turntables, steps=5)
+        capped = _pooled_turntables(*turntables, steps=5, max_iterations=3)
+    assert "_pooled_fit" not in seen and compiled.count == 0, (seen, compiled.count)
+    for out in (two, five, capped):
+        assert np.all(np.isfinite(np.asarray(out.sites.values)))
+    # Each round but the last two runs EM, whose every pass makes 3 updates: capped at 3,
+    # five rounds make exactly 15; uncapped, at least that many.
+    iterations = [int(np.max(np.asarray(out.sites.iterations))) for out in (two, five, capped)]
+    assert iterations[2] == 15 and iterations[1] >= 15 and iterations[0] >= 6, iterations
+
+
+def test_nonlinear_map_equals_scipy_least_squares(turntables, first_nonlinear_fit):
+    """A sky-form turntable (encoder zeros per site): the pooled values are the MAP of
+    the population the fit ended at, as scipy finds it on the plain residuals
+    (px.residuals) plus the prior's rows."""
+    obs, starts = turntables
+    fit = _pooled_turntables(obs, starts)  # the MAP of the population it ends at, whatever EM's tolerance
     assert bool(fit.converged)
+    model = px.Turntable("full")
     names = [p.name for p in model.free_parameters]
-    pooled = np.array([n != "alpha0" for n in names])
+    pooled = np.array([n not in TURNTABLE_UNPOOLED for n in names])
     mu = np.asarray(fit.population_mean[0])[pooled]
     R = _upper(np.linalg.inv(np.asarray(fit.population_covariance[0])[np.ix_(pooled, pooled)]))
     sigma = float(fit.noise[0])
@@ -340,51 +403,6 @@ def test_nonlinear_map_equals_scipy_least_squares():
     x = least_squares(resid, starts.ravel(), method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
     got = np.asarray(fit.sites.values).ravel()
     np.testing.assert_allclose(got, x, rtol=1e-8, atol=1e-8 * np.abs(x).max())
-
-
-def test_a_nonlinear_fit_compiles_one_em_and_two_linearisations(monkeypatch):
-    """The rounds of a nonlinear pooled fit, the last Gauss-Newton step's included, are
-    one loop: its program holds the start's linearisation and the loop's (with its EM),
-    at any number of steps (copies of them before and after the loop doubled its
-    compiling). The number of steps and EM's iteration limit are data: other counts
-    run the same program (nothing traced, nothing compiled) and take the steps and the
-    limit asked for (counted in EM updates)."""
-    from pointax.fitting import pooled
-
-    called = {"_linearise": 0, "_em": 0}
-    for name in called:
-        original = getattr(pooled, name)
-
-        def counted(*args, _original=original, _name=name, **kwargs):
-            called[_name] += 1  # inside the compiled fit: runs when it is traced
-            return _original(*args, **kwargs)
-
-        monkeypatch.setattr(pooled, name, counted)
-    sites = [_turntable_site(n, 90 + k)[0] for k, n in enumerate([7, 9, 11])]
-    starts = _turntable_starts(sites)
-    obs = px.stack_observations(sites)
-
-    def fit(steps, max_iterations=2000):
-        return px.fit_pooled(
-            px.Turntable("full"), obs, values=starts, unpooled=("alpha0",), covariance="diagonal", steps=steps,
-            max_iterations=max_iterations,
-        )  # fmt: skip
-
-    with traces() as seen:
-        two = fit(2)
-    assert "_pooled_fit" in seen  # traced here, so the counts are of this program
-    assert called == {"_linearise": 2, "_em": 1}, called
-    with traces() as seen, COUNTER as compiled:
-        five = fit(5)
-        capped = fit(5, max_iterations=3)
-    assert "_pooled_fit" not in seen and compiled.count == 0, (seen, compiled.count)
-    assert called == {"_linearise": 2, "_em": 1}, called
-    for out in (two, five, capped):
-        assert np.all(np.isfinite(np.asarray(out.sites.values)))
-    # Each round but the last runs EM, whose every pass makes 3 updates: capped at 3,
-    # five rounds make exactly 15; uncapped, at least that many.
-    iterations = [int(np.max(np.asarray(out.sites.iterations))) for out in (two, five, capped)]
-    assert iterations[2] == 15 and iterations[1] >= 15 and iterations[0] >= 6, iterations
 
 
 # --------------------------------------------------------------------------- command line

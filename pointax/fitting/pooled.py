@@ -480,38 +480,57 @@ def _pooled_fit(model, own, shared, y, p, obs, group, noise, tol, rtol, atol, k,
     pooled = jnp.asarray(pooled_mask, bool)
     noise_fixed = noise > 0  # (G,): a noise given, not estimated
     data = site_data(model, obs)
-    q = _linearise(model, own, shared, y, p, data)
-    start = _initial_population(q, group, n_groups, pooled, diagonal, noise)
-    em = lambda q, pop, limit: _em(q, pop, start, group, n_groups, pooled, diagonal, noise_fixed, limit, tol)  # noqa: E731
+
+    def em(q, pop, ref, limit):
+        return _em(q, pop, ref, group, n_groups, pooled, diagonal, noise_fixed, limit, tol)
+
     if affine:
-        pop, iterations, em_ok = em(q, start, max_iterations)
+        q = _linearise(model, own, shared, y, p, data)
+        start = _initial_population(q, group, n_groups, pooled, diagonal, noise)
+        pop, iterations, em_ok = em(q, start, start, max_iterations)
         post = _posterior(q, pop, group, pooled)
     else:
-        # Each of the ``steps`` rounds runs EM on the quadratics at the current values,
-        # steps to the MAP values and linearises there; one round more holds the
-        # population (no EM update) and takes a Gauss-Newton step: the MAP values for
-        # the population reported, and the convergence test on the step after it (the
-        # first finishes what the population's last change left, its size the square of
-        # that change times the curvature, above rtol on the example turntables). One
-        # linearisation and one EM in the loop's body, not copies of them before and
-        # after it: they are most of the program, and so of its compiling.
-        def outer(i, state):
-            q, pop, iterations, ok = state
-            held = i == steps
-            pop, it, em_ok = em(q, pop, jnp.where(held, 0, max_iterations))
+        # Round i linearises the residuals at the current values (the starting
+        # population comes from round 0's), runs EM on those quadratics and steps to the
+        # MAP values. Rounds ``steps`` and ``steps + 1`` hold the population (EM's limit
+        # 0): a Gauss-Newton step for the MAP values reported, then the step after it,
+        # which the convergence test takes (the first finishes what the population's
+        # last change left, its size the square of that change times the curvature,
+        # above rtol on the example turntables). The linearisation and EM appear once
+        # in the program, inside the loop's body: they are most of the program, and so
+        # of its compiling.
+        def one_round(i, state):
+            _, _, pop, ref, iterations, ok = state
+            q = _linearise(model, own, shared, state[0].y + state[1].dy, state[0].p + state[1].dp, data)
+            start = _initial_population(q, group, n_groups, pooled, diagonal, noise)
+            first, held = i == 0, i >= steps
+            pop, ref = (jax.tree.map(lambda a, b: jnp.where(first, a, b), start, x) for x in (pop, ref))
+            pop, it, em_ok = em(q, pop, ref, jnp.where(held, 0, max_iterations))
             post = _posterior(q, pop, group, pooled)
-            q = _linearise(model, own, shared, q.y + post.dy, q.p + post.dp, data)
-            return q, pop, iterations + it, jnp.where(held, ok, em_ok)
+            return q, post, pop, ref, iterations + it, jnp.where(held, ok, em_ok)
 
-        state = (q, start, jnp.asarray(0), jnp.asarray(True))
-        q, pop, iterations, em_ok = jax.lax.fori_loop(0, steps + 1, outer, state)
-        post = _posterior(q, pop, group, pooled)
+        # Round 0 starts from ``(y, p)``: a quadratic at those values and a zero step.
+        q, post, pop = _round_placeholders(y, p, n_groups)
+        state = (q, post, pop, pop, jnp.asarray(0), jnp.asarray(True))
+        q, post, pop, _, iterations, em_ok = jax.lax.fori_loop(0, steps + 2, one_round, state)
     small = jnp.all(within_tolerances(post.dy, q.y + post.dy, rtol, atol) | ~q.active[:, None]) & jnp.all(
         within_tolerances(post.dp, q.p + post.dp, rtol, atol)
     )
     final = _shifted(q, post.dy, post.dp)
     post = _posterior(final, pop, group, pooled)  # covariances at the final point (its step ~ 0)
     return _report(model, own, shared, final, post, pop, data, group, pooled, k, iterations, em_ok, small | affine)
+
+
+def _round_placeholders(y, p, n_groups: int) -> tuple[_Quadratic, _Posterior, _Population]:
+    """Zeros of the shapes a round of the nonlinear fit carries, with the values at
+    ``(y, p)`` and a zero step (the state before round 0, which overwrites the rest)."""
+    s, m = y.shape
+    k = m + p.shape[0]
+    zeros = lambda *shape: jnp.zeros(shape, y.dtype)  # noqa: E731
+    q = _Quadratic(y, p, zeros(s, k, k), zeros(s, k), zeros(s), zeros(s), jnp.zeros(s, bool))
+    post = _Posterior(zeros(s, m), zeros(p.shape[0]), zeros(s, m, m), zeros(s, m, p.shape[0]),
+                      zeros(p.shape[0], p.shape[0]), zeros(s, m, m))  # fmt: skip
+    return q, post, _Population(zeros(n_groups, m), zeros(n_groups, m, m), zeros(n_groups))
 
 
 def _report(model, own, shared, q: _Quadratic, post: _Posterior, pop: _Population, data, group, pooled, k,
