@@ -12,7 +12,7 @@ from pathlib import Path
 
 # Compiling is most of the suite's time. (1) XLA's older loop emitters compile pointax's
 # programs in about two thirds of the time (pointax already compiles its larger programs
-# so, pointax.fitting.xla_options; here every program of the session is), and at JAX's
+# so, pointax.core.xla_options; here every program of the session is), and at JAX's
 # least optimisation (JAX_DISABLE_MOST_OPTIMIZATIONS: level 0, which pointax's own
 # options then leave alone) in about three quarters of that again: the suite's fits run
 # on a few dozen observations, so compiling, not running, is their cost (three long test

@@ -120,7 +120,7 @@ def test_the_tpoint_start_is_only_for_linear_sky_terms(monkeypatch):
 def test_quick_compile_options_leave_the_level_to_jax_when_it_asks_for_least_optimisation():
     """pointax's options raise XLA's optimisation level to 2, except where the user set
     JAX's ``jax_disable_most_optimizations`` (the test suite does): then JAX's 0 holds."""
-    from pointax.fitting import xla_options
+    from pointax.core import xla_options
 
     before = jax.config.read("jax_disable_most_optimizations")
     try:

@@ -257,6 +257,30 @@ def test_batch_shapes_and_non_finite():
     np.testing.assert_allclose(c.reading, flat.reading, atol=1e-12)
 
 
+def test_one_program_for_every_batch_up_to_64_with_the_quicker_options(monkeypatch):
+    """The solve is compiled with the quicker XLA options (pointax.core.xla_options: half
+    the compile time, the same speed; benchmarks/interactive_notes.md), and batches of 1
+    to 64 directions run that one program (padded: nothing compiles again)."""
+    from compile_counter import COUNTER
+
+    from pointax.core import inverse, xla_options
+
+    built = []
+    real = xla_options.jit
+    monkeypatch.setattr(xla_options, "jit", lambda fn, fast=True, **kw: built.append(fast) or real(fn, fast, **kw))
+    inverse._command_program.cache_clear()
+    try:
+        model = _turntable(np.radians([0.05, -0.02, 0.03, 40.0, 2.0]))
+        d = _directions(9, 64, 10.0, 80.0)
+        first = command(model, d[:1])
+        with COUNTER as compiled:
+            batches = [command(model, d[:n]) for n in (2, 17, 64)]
+        assert built == [True] and compiled.count == 0, (built, compiled.count)
+        np.testing.assert_allclose(np.asarray(batches[-1].reading)[:1], np.asarray(first.reading), atol=1e-13)
+    finally:
+        inverse._command_program.cache_clear()
+
+
 def test_bad_arguments():
     model = _turntable(np.zeros(5))
     with pytest.raises(ValueError, match="solution"):

@@ -13,7 +13,7 @@ import pytest
 def test_tests_compile_with_the_quicker_xla_options():
     import jax
 
-    from pointax.fitting import xla_options
+    from pointax.core import xla_options
 
     assert "--xla_cpu_use_fusion_emitters=false" in os.environ.get("XLA_FLAGS", "")
     assert os.environ.get("JAX_DISABLE_MOST_OPTIMIZATIONS") == "1"

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from ..fitting import xla_options
+from ..core import xla_options
 from ..fitting.core import linearised_change
 from ..fitting.problem import define_problem
 from ..fitting.statistics import normalised_weights, statistics

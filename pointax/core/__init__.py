@@ -12,6 +12,7 @@
 * :mod:`~pointax.core.errors`: the error and warning every reader raises for bad input.
 * :mod:`~pointax.core.precision`: float64 without changing the user's JAX settings.
 * :mod:`~pointax.core.compiled`: functions of a model compiled once per structure when called op by op.
+* :mod:`~pointax.core.xla_options`: XLA options that shorten the compilation of the larger programs.
 * :mod:`~pointax.core.lazy`: lazy package namespaces (``import pointax`` loads no numerical library).
 
 The core imports no particular term, no file format, no plotting, no command line and

@@ -31,6 +31,7 @@ diagnostic and carries no gradient.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -42,6 +43,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from . import xla_options
 from .padding import power_of_two
 from .precision import float64
 from .model import Model
@@ -79,8 +81,9 @@ _SAFE = np.array([0.0, np.sqrt(0.5), np.sqrt(0.5)])
 # the converged reading.
 _START_SHIFTS = np.array(list(itertools.product(range(-2, 3), range(-1, 2))), float)
 _FINAL_SHIFTS = np.array(list(itertools.product(range(-1, 2), range(-1, 2))), float)
-# Smallest padded batch (see command).
-_MIN_BATCH = 8
+# Smallest padded batch (see command): every batch up to 64 directions runs one program
+# (a compilation takes seconds; 64 directions solve as fast as 8).
+_MIN_BATCH = 64
 # Fixed-point iterations undoing encoder corrections for the Newton start.
 _ENCODER_ITERATIONS = 3
 
@@ -254,11 +257,26 @@ def _settle(model: Model, reading, target, near, has_near, limits, pref, tol: fl
     return reading, res, status
 
 
-@eqx.filter_jit
+@functools.cache
+def _command_program():
+    """:func:`_command_flat` compiled with the quicker compiler options
+    (:mod:`pointax.core.xla_options`: about half the compile time, the same speed):
+    ``program(arrays, structure, tol, max_steps)``, the arguments split by
+    ``eqx.partition(..., eqx.is_array)`` (the readings as ``(name, values)`` pairs: a
+    static part must be hashable)."""
+
+    def run(arrays, structure, tol, max_steps):
+        model, d, near, has_near, limits, solution, values = eqx.combine(arrays, structure)
+        return _command_flat(model, d, near, has_near, limits, tol, max_steps, solution, dict(values))
+
+    return xla_options.jit(run, static_argnums=(1, 2, 3))
+
+
 def _command_flat(model: Model, d, near, has_near, limits, tol: float, max_steps: int, solution: Array, values=None):
-    """The solve for ``(n, 3)`` directions; see :func:`command`. ``near`` is ``(n, 2)``
-    and used only where the scalar ``has_near`` is True, ``solution`` is the index
-    into :data:`SOLUTIONS`: both are traced, so they do not cause recompiling.
+    """The solve for ``(n, 3)`` directions; see :func:`command` (compiled by
+    :func:`_command_program`). ``near`` is ``(n, 2)`` and used only where the scalar
+    ``has_near`` is True, ``solution`` is the index into :data:`SOLUTIONS`: both are
+    traced, so they do not cause recompiling.
     ``values``: the auxiliary readings the model reads, name -> ``(n,)`` (``{}`` for
     a model that reads none); each direction is solved with the model bound to its own
     (:meth:`pointax.Model.at_readings`)."""
@@ -377,9 +395,10 @@ def limits_array(limits) -> Array:
     return jnp.stack(rows)
 
 
-def _command_readings(model: Model, readings, batch: tuple[int, ...]) -> dict:
+def _command_readings(model: Model, readings, batch: tuple[int, ...], xp=jnp) -> dict:
     """The readings ``model`` reads, each ``(prod(batch),)`` float64 (``{}`` for a model
-    that reads none); ValueError naming the missing ones or a wrong shape."""
+    that reads none), as ``xp`` arrays (NumPy or jax.numpy); ValueError naming the
+    missing ones or a wrong shape."""
     if not model.readings:
         return {}
     readings = {} if readings is None else readings
@@ -391,9 +410,9 @@ def _command_readings(model: Model, readings, batch: tuple[int, ...]) -> dict:
         )
     out = {}
     for name in model.readings:
-        value = jnp.asarray(readings[name], float)
+        value = xp.asarray(readings[name], float)
         try:
-            value = jnp.broadcast_to(value, batch)
+            value = xp.broadcast_to(value, batch)
         except ValueError:
             raise ValueError(
                 f"reading {name!r} has shape {value.shape}; expected a scalar or the directions' batch shape {batch}"
@@ -472,49 +491,53 @@ def command(
     if not is_quantity(direction) and not isinstance(direction, jax.core.Tracer):
         # az/el in degrees where unit vectors belong is named (non-unit vectors are normalised)
         check_unit_vectors(direction, "direction", warn=True, tolerance=1.0)
-    direction = jnp.asarray(directions_enu(direction, "direction"), float)
+    # Called outside a trace, the padding and slicing around the compiled solve run in
+    # NumPy: JAX would compile each of those small operations again for every new batch
+    # size. Inside a caller's jit, vmap or grad the solve is part of the caller's trace.
+    traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves((direction, near, model, readings)))
+    xp = jnp if traced else np
+    direction = xp.asarray(directions_enu(direction, "direction"), float)
     if direction.ndim < 1 or direction.shape[-1] != 3:
         raise ValueError(f"direction must have shape (..., 3), got {direction.shape}")
     batch = direction.shape[:-1]
     flat = direction.reshape(-1, 3)
     n = flat.shape[0]
     if near is None:
-        near_flat = jnp.zeros((n, 2))
+        near_flat = xp.zeros((n, 2))
     else:
-        near = jnp.asarray(angles_in_radians(near, "near") if is_quantity(near) else near, float)
+        near = xp.asarray(angles_in_radians(near, "near") if is_quantity(near) else near, float)
         if near.shape[-1:] != (2,):
             raise ValueError(f"near must have shape (2,) or (..., 2), got {near.shape}")
-        near_flat = jnp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
+        near_flat = xp.broadcast_to(near, batch + (2,)).reshape(-1, 2)
     lim = limits_array(limits)
-    values = _command_readings(model, readings, batch)
+    values = _command_readings(model, readings, batch, xp)
     # Parameters as arrays, so that jit traces them instead of baking Python floats in
     # (one compilation for every set of values).
     model = model.with_values(model.values())
     # Pad the batch to a power of two: one compilation serves many batch sizes.
     size = power_of_two(n, _MIN_BATCH)
     pad = size - n
-    flat = jnp.concatenate([flat, jnp.broadcast_to(jnp.asarray(_SAFE), (pad, 3))])
-    near_flat = jnp.concatenate([near_flat, jnp.zeros((pad, 2))])
-    values = {k: jnp.concatenate([v, jnp.broadcast_to(v[:1], (pad,))]) for k, v in values.items()}
-    outputs = _command_flat(
-        model,
-        flat,
-        near_flat,
-        jnp.asarray(near is not None),
-        lim,
-        float(tol),
-        int(max_steps),
-        jnp.asarray(SOLUTIONS.index(solution)),
-        values,
-    )
-    reading, ok, residual, iterations, pick, status = (x[:n] for x in outputs)
+    flat = xp.concatenate([flat, xp.broadcast_to(xp.asarray(_SAFE), (pad, 3))])
+    near_flat = xp.concatenate([near_flat, xp.zeros((pad, 2))])
+    values = {k: xp.concatenate([v, xp.broadcast_to(v[:1], (pad,))]) for k, v in values.items()}
+    has_near, choice = xp.asarray(near is not None), xp.asarray(SOLUTIONS.index(solution))
+    if traced:
+        outputs = _command_flat(model, flat, near_flat, has_near, lim, float(tol), int(max_steps), choice, values)
+        shaped = [x[:n].reshape(batch + x.shape[1:]) for x in outputs]
+    else:
+        arrays, structure = eqx.partition(
+            (model, flat, near_flat, has_near, lim, choice, tuple(values.items())), eqx.is_array
+        )
+        outputs = jax.device_get(_command_program()(arrays, structure, float(tol), int(max_steps)))
+        shaped = [jax.device_put(x[:n].reshape(batch + x.shape[1:])) for x in outputs]  # (no compiling)
+    reading, ok, residual, iterations, pick, status = shaped
     return Command(
-        reading=reading.reshape(batch + (2,)),
-        ok=ok.reshape(batch),
-        residual=residual.reshape(batch),
-        iterations=iterations.reshape(batch),
-        solution=pick.reshape(batch),
-        status=status.reshape(batch),
+        reading=reading,
+        ok=ok,
+        residual=residual,
+        iterations=iterations,
+        solution=pick,
+        status=status,
         limits=lim,
         axis_names=tuple(model.mount.axis_names),
     )

@@ -15,7 +15,6 @@
 * :mod:`~pointax.fitting.solo`: :func:`fit`, one run.
 * :mod:`~pointax.fitting.result`: :class:`FitResult`.
 * :mod:`~pointax.fitting.programs`: traced fits kept on disk (:mod:`jax.export`).
-* :mod:`~pointax.fitting.xla_options`: compiler options for the larger programs.
 
 Batched fits (:mod:`pointax.fitting.batch`) run a fixed-step fast pass
 (:mod:`pointax.fitting.batch_fast_pass`) on the same problem definition and send the sites it does not settle to :func:`fit_model`; shared-parameter

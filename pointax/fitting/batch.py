@@ -152,7 +152,7 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
     ``active`` marks (default all; padding sites are skipped, not fitted), one site after
     another (``lax.map``): their step counts differ, and under ``vmap`` each would run as
     long as the slowest. Compiled with the solo fit's compiler options
-    (:mod:`pointax.fitting.xla_options`), which run it faster (``benchmarks/batch_fit_notes.md``)."""
+    (:mod:`pointax.core.xla_options`), which run it faster (``benchmarks/batch_fit_notes.md``)."""
     if active is None:
         active = np.ones(np.shape(values)[0], bool)
     # The robust settings are data (another loss or reject: no compilation), the rest of

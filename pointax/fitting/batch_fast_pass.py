@@ -26,7 +26,8 @@ from jaxtyping import Array
 from ..core.model import Model
 from ..core.mounts import SphericalMount
 from ..core.term import Term
-from . import normal_equations, programs, xla_options
+from . import normal_equations, programs
+from ..core import xla_options
 from .core import fit_result_structure, result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
 from .problem import SiteData, is_affine, site_data, site_residuals
@@ -105,7 +106,7 @@ def first_call(name: str, args, statics=()) -> bool:
 
 @functools.cache
 def compiled(fn, static_argnames: tuple[str, ...] = (), fast_options: bool = True):
-    """``fn`` compiled with :func:`pointax.fitting.xla_options.jit` (one per function and options)."""
+    """``fn`` compiled with :func:`pointax.core.xla_options.jit` (one per function and options)."""
     return xla_options.jit(fn, fast_options, static_argnames=static_argnames)
 
 
@@ -238,7 +239,7 @@ def _along(cols: list, update) -> list:
 
 def uses_fast_compile_options(model: Model) -> bool:
     """Whether the fast pass compiles ``model``'s fit with
-    :data:`pointax.fitting.xla_options.FAST_COMPILE_OPTIONS`: not for the exact (sky)
+    :data:`pointax.core.xla_options.FAST_COMPILE_OPTIONS`: not for the exact (sky)
     residual form with sky offsets, whose fixed-point iterations run faster with XLA's
     default emitters and compile no slower."""
     return not sky_form_with_sky_offsets(model)

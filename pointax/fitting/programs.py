@@ -41,7 +41,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from . import xla_options
+from ..core import xla_options
 
 __all__ = ["set_directory", "directory", "call", "clear", "STATS"]
 
@@ -88,7 +88,7 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable, fast
             built without tracing (a pytree structure cannot be stored: an equinox
             module's does not survive pickling); checked against the traced one before a
             program is stored.
-        fast_compile: compile with :func:`pointax.fitting.xla_options.fast_compile_options`
+        fast_compile: compile with :func:`pointax.core.xla_options.fast_compile_options`
             (part of the key).
 
     Falls back to an ordinary ``jax.jit`` when the program cannot be exported.

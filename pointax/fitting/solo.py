@@ -20,7 +20,8 @@ from ..core.padding import pad_rows, power_of_two
 from ..core.precision import float64
 from ..core.model import Model
 from ..core.observations import Observations
-from . import programs, xla_options
+from . import programs
+from ..core import xla_options
 from .core import RobustSettings, fit_core, free_mask, labelled, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
@@ -58,7 +59,7 @@ def fit_model(
 @functools.cache
 def _fit_core_jit():
     """:func:`fit_core` compiled in memory (no programs folder), with the faster
-    compiler options (:mod:`pointax.fitting.xla_options`: it compiles in half the time,
+    compiler options (:mod:`pointax.core.xla_options`: it compiles in half the time,
     to a smaller executable that runs about as fast)."""
 
     def run(dynamic, static, options):
