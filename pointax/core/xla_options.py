@@ -3,8 +3,9 @@
 On the CPU, XLA's older loop emitters compile these programs (the batched fixed-step
 fit, model building's residuals and Jacobian, the solo fit, :func:`pointax.command`'s
 solve) in well under half the time of its fusion emitters, and the programs run as fast
-(figures in ``benchmarks/batch_fit_notes.md`` and ``benchmarks/interactive_notes.md``). The options go through ``jax.jit``'s public
-``compiler_options``, and only where this XLA knows them.
+(figures in ``benchmarks/batch_fit_notes.md`` and ``benchmarks/interactive_notes.md``).
+The options go through ``jax.jit``'s public ``compiler_options``, and only where this
+XLA knows them.
 """
 
 from __future__ import annotations

@@ -23,11 +23,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
+from ..core import xla_options
 from ..core.model import Model
 from ..core.mounts import SphericalMount
 from ..core.term import Term
 from . import normal_equations, programs
-from ..core import xla_options
 from .core import fit_result_structure, result_from_covariance, within_tolerances
 from .fast_jacobian import residuals_and_columns
 from .problem import SiteData, is_affine, site_data, site_residuals

@@ -19,9 +19,9 @@ from jaxtyping import Array, Float
 from ..core.padding import pad_rows, power_of_two
 from ..core.precision import float64
 from ..core.model import Model
+from ..core import xla_options
 from ..core.observations import Observations
 from . import programs
-from ..core import xla_options
 from .core import RobustSettings, fit_core, free_mask, labelled, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
