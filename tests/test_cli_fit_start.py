@@ -200,35 +200,41 @@ def test_a_missing_start_model_is_refused_before_any_numerical_library(mmt, tmp_
 
 def test_start_values_are_data_the_stored_program_serves_them(mmt, tmp_path):
     """A fit from a model file runs the program its plain fit stored (nothing traced
-    again), as the fixed set and the values are inputs of the compiled fit."""
+    again), as the fixed set and the values are inputs of the compiled fit; so does a
+    fit from another model file in the same process."""
     dat, mod, *_ = mmt
     code = (
         "import contextlib, io, json, sys\n"
         "from pointax.cli import main\n"
         "from pointax.fitting import programs\n"
-        "out = io.StringIO()\n"
-        "with contextlib.redirect_stdout(out):\n"
-        "    code = main(sys.argv[1:])\n"
-        "print(json.dumps({'code': code, 'stats': programs.STATS, 'fit': json.loads(out.getvalue())}))\n"
+        "runs = []\n"
+        "for argv in json.loads(sys.argv[1]):\n"
+        "    out = io.StringIO()\n"
+        "    with contextlib.redirect_stdout(out):\n"
+        "        code = main(argv)\n"
+        "    runs.append({'code': code, 'stats': dict(programs.STATS), 'fit': json.loads(out.getvalue())})\n"
+        "print(json.dumps(runs))\n"
     )
     env = {**os.environ, "POINTAX_JAX_CACHE": str(tmp_path / "cache")}
 
-    def run_once(*extra):
-        argv = ["fit", str(dat), "--azimuth", "S-E", "--json", *map(str, extra)]
-        proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, env=env, timeout=300)
+    def process(*extras):
+        """One Python process fitting the run once per ``extras``: ``[(stats so far, fit), ...]``."""
+        argvs = [["fit", str(dat), "--azimuth", "S-E", "--json", *map(str, extra)] for extra in extras]
+        proc = subprocess.run([sys.executable, "-c", code, json.dumps(argvs)], capture_output=True, text=True, env=env,
+                              timeout=300)  # fmt: skip
         assert proc.returncode == 0, proc.stderr
-        out = json.loads(proc.stdout.splitlines()[-1])
-        assert out["code"] == 0
-        return out["stats"], out["fit"]
+        runs = json.loads(proc.stdout.splitlines()[-1])
+        assert [r["code"] for r in runs] == [0] * len(extras)
+        return [(r["stats"], r["fit"]) for r in runs]
 
-    stats, plain = run_once()
+    ((stats, plain),) = process(())
     assert stats["exported"] == 1 and stats["stored"] == 1
-    stats, started = run_once("--model", mod, "--fix", "IA")
-    assert stats["exported"] == 0 and stats["loaded"] == 1
-    assert started["fixed"] == {"IA": IA_FILE}
     other = tmp_path / "other.mod"
     other.write_text(mod.read_text().replace("+1209.2612", "+1100.0000"))
-    stats, again = run_once("--model", other, "--fix", "IA")
-    assert stats["exported"] == 0 and stats["loaded"] == 1 and again["fixed"] == {"IA": 1100.0}
+    (stats, started), (stats_again, again) = process(("--model", mod, "--fix", "IA"), ("--model", other, "--fix", "IA"))
+    assert stats["exported"] == 0 and stats["loaded"] == 1
+    assert started["fixed"] == {"IA": IA_FILE}
+    # The program loaded for the first runs again from memory: nothing read, nothing traced.
+    assert stats_again == {**stats, "memory": stats["memory"] + 1} and again["fixed"] == {"IA": 1100.0}
     # another start, another fit (IA's 109" go mostly into CA and NPAE), from the same program
     assert abs(_values(again)["CA"] - _values(started)["CA"]) > 10
