@@ -500,11 +500,13 @@ def _pooled_fit(model, own, shared, y, p, obs, group, noise, tol, rtol, atol, k,
         # in the program, inside the loop's body: they are most of the program, and so
         # of its compiling.
         def one_round(i, state):
-            _, _, pop, ref, iterations, ok = state
-            q = _linearise(model, own, shared, state[0].y + state[1].dy, state[0].p + state[1].dp, data)
-            start = _initial_population(q, group, n_groups, pooled, diagonal, noise)
-            first, held = i == 0, i >= steps
-            pop, ref = (jax.tree.map(lambda a, b: jnp.where(first, a, b), start, x) for x in (pop, ref))
+            q, post, pop, ref, iterations, ok = state
+            q = _linearise(model, own, shared, q.y + post.dy, q.p + post.dp, data)
+            # The starting population (also EM's reference scale), computed in round 0 only.
+            pop, ref = jax.lax.cond(
+                i == 0, lambda: (_initial_population(q, group, n_groups, pooled, diagonal, noise),) * 2, lambda: (pop, ref)
+            )
+            held = i >= steps
             pop, it, em_ok = em(q, pop, ref, jnp.where(held, 0, max_iterations))
             post = _posterior(q, pop, group, pooled)
             return q, post, pop, ref, iterations + it, jnp.where(held, ok, em_ok)
