@@ -67,6 +67,23 @@ def test_use_lose_fix_mask_do_not_recompile(run, first):
     assert int(results[-1].n_obs) == len(run.observations) - 5
 
 
+def test_another_step_limit_does_not_recompile(run, first):
+    """The step limit is data of the compiled fit (FitSettings), as the terms, fixes and
+    masks are: after the first fit, other limits run it. A fit started away from the
+    optimum stops at its limit and says so; given enough steps it takes as many as the
+    first fit (20 from the model's zeros) and converges to it."""
+    model = _model(run, TERMS)
+    with COUNTER as counted:
+        results = {k: px.fit(model, run, max_steps=k) for k in (1, 3, 20, 1000)}
+        steps = {k: int(r.iterations) for k, r in results.items()}
+        converged = {k: bool(r.converged) for k, r in results.items()}
+    assert counted.count == 0
+    assert steps == {1: 1, 3: 3, 20: int(first.iterations), 1000: int(first.iterations)}
+    assert converged == {1: False, 3: False, 20: True, 1000: True}
+    assert "maximum number of steps" in results[3].message
+    np.testing.assert_array_equal(np.asarray(results[1000].values), np.asarray(first.values))
+
+
 def test_union_fits_equal_fits_of_the_model_alone(run, first):
     """A subset fitted through the union equals the same fit with exactly the model's
     structure (the core called directly, no union), and NumPy's least squares."""

@@ -365,13 +365,13 @@ def test_robust_passes_are_one_compiled_solve(loss, scale):
     run in a loop around one solve, so its program holds one solver, as a least-squares
     fit's does, not one per pass (a cold robust `px.fit` of the MMT run: 12.6 s -> 6 s).
     Traced as px.fit runs it: the robust settings as arguments."""
-    from pointax.fitting.core import RobustSettings, fit_core
+    from pointax.fitting.core import FitSettings, fit_core
 
     model = _model()
     obs = px.simulate(model, encoder_grid(4, (25, 45, 65, 85)), noise=ARCSEC, seed=3)
     options = FitOptions(loss=loss, loss_scale=scale)
     run = lambda o, robust: fit_core(model, free_mask(model), o, options.compiled(), robust)  # noqa: E731
-    every, solves = _loops(jax.make_jaxpr(run)(obs, RobustSettings.of(options)).jaxpr)
+    every, solves = _loops(jax.make_jaxpr(run)(obs, FitSettings.of(options)).jaxpr)
     assert solves == 1 and every == (1 if loss == "linear" else 2)
 
 

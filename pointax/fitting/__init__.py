@@ -29,7 +29,7 @@ from ..core.lazy import lazy_namespace
 _EXPORTS = {
     "LOSSES": "core",
     "ROBUST_LOSSES": "core",
-    "RobustSettings": "core",
+    "FitSettings": "core",
     "SOLVERS": "core",
     "site_statuses": "batch",
     "observation_residuals": "masking",
@@ -78,7 +78,7 @@ __all__ = [
     "LOSS_NAMES",
     "RAYLEIGH_MEDIAN",
     "ROBUST_LOSSES",
-    "RobustSettings",
+    "FitSettings",
     "SOLVERS",
     "SOLVER_NAMES",
     "Statistics",

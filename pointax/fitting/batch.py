@@ -41,7 +41,7 @@ from .batch_fast_pass import (
     starts_in_tpoint_form,
 )
 from . import programs
-from .core import RobustSettings, fit_result_structure, labelled
+from .core import FitSettings, fit_result_structure, labelled
 from .batch_records import site_result, site_statuses
 from .options import FitOptions
 from .problem import is_affine
@@ -155,9 +155,10 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
     (:mod:`pointax.core.xla_options`), which run it faster (``benchmarks/batch_fit_notes.md``)."""
     if active is None:
         active = np.ones(np.shape(values)[0], bool)
-    # The robust settings are data (another loss or reject: no compilation), the rest of
-    # the options structure; the result is labelled with the options' own loss.
-    args = (model, values, obs, np.asarray(active), RobustSettings.of(options))
+    # The step limit and the robust settings are data (another limit, loss or reject: no
+    # compilation), the rest of the options structure; the result is labelled with the
+    # options' own loss.
+    args = (model, values, obs, np.asarray(active), FitSettings.of(options))
     if programs.directory() is not None:
         # Stored programs (jax.export): a later process does not trace the full loop again
         # (tracing it costs more than loading its compiled code, benchmarks/network_scale.py).
@@ -168,13 +169,13 @@ def _fit_sites(model, values, obs, options: FitOptions, active=None):
     return labelled(out, options)
 
 
-def _stored_full_loop(model, values, obs, active, robust, options: FitOptions):
+def _stored_full_loop(model, values, obs, active, settings, options: FitOptions):
     """:func:`_full_loop` in :func:`pointax.fitting.programs.call`'s form."""
-    dynamic, static = eqx.partition((model, values, obs, active, robust), eqx.is_array)
+    dynamic, static = eqx.partition((model, values, obs, active, settings), eqx.is_array)
     return _full_loop(dynamic, _Static(static), options)
 
 
-def _full_loop_structure(model, values, obs, active, robust, options: FitOptions):
+def _full_loop_structure(model, values, obs, active, settings, options: FitOptions):
     """The pytree structure of :func:`_full_loop`'s result (a batched
     :func:`pointax.fitting.fit_model` result), built without tracing."""
     return fit_result_structure(model, model.free_parameters, options)
@@ -199,12 +200,12 @@ class _Static:
 
 def _full_loop(dynamic, static: _Static, options: FitOptions):
     """:func:`_fit_sites`'s loop; ``dynamic`` and ``static``: ``(model, values, obs,
-    active, robust)`` partitioned into arrays and the rest."""
-    model, values, obs, active, robust = eqx.combine(dynamic, static.tree())
+    active, settings)`` partitioned into arrays and the rest."""
+    model, values, obs, active, settings = eqx.combine(dynamic, static.tree())
 
     def one(args):
         y, site_obs = args
-        return fit_model(model.with_values(y, "free"), site_obs, options, robust=robust)
+        return fit_model(model.with_values(y, "free"), site_obs, options, settings=settings)
 
     shapes = jax.eval_shape(one, jax.tree.map(lambda x: x[0], (values, obs)))
 

@@ -12,8 +12,8 @@ Robust fits (``loss`` 'cauchy', 'huber' or 'soft_l1') minimise ``sum_i rho(|r_i|
 with the scale chosen from the data, flag observations whose residual exceeds
 ``reject`` robust standard deviations as outliers, and finish with a plain
 least-squares fit of the rest, so values, sigmas and statistics keep TPOINT's meaning.
-The loss, its scale and ``reject`` are arrays (:class:`RobustSettings`), so one compiled
-robust fit serves every choice of them.
+The loss, its scale, ``reject`` and the step limit are arrays (:class:`FitSettings`), so
+one compiled fit serves every choice of them.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ __all__ = [
     "SOLVERS",
     "LOSSES",
     "ROBUST_LOSSES",
-    "RobustSettings",
+    "FitSettings",
     "robust_rho",
     "fit_core",
     "least_squares",
@@ -95,14 +95,14 @@ LOSSES = {"linear": None, "huber": _rho_huber, "soft_l1": _rho_soft_l1, "cauchy"
 ``least_squares`` defines them, scaled by ``c^2``); 'linear' is plain least squares."""
 
 ROBUST_LOSSES = ("huber", "soft_l1", "cauchy")
-"""The robust losses in the order :attr:`RobustSettings.loss` numbers them."""
+"""The robust losses in the order :attr:`FitSettings.loss` numbers them."""
 
 
-class RobustSettings(NamedTuple):
-    """A robust fit's loss, soft margin and rejection threshold as arrays: data of a
-    compiled fit, not part of its structure (:meth:`pointax.FitOptions.compiled`), so
-    that another loss, scale or threshold refits without compiling. A least-squares fit
-    ignores them."""
+class FitSettings(NamedTuple):
+    """The options of a fit that are data of its compiled program, not part of its
+    structure (:meth:`pointax.FitOptions.compiled` is the rest): the step limit and a
+    robust fit's loss, soft margin and rejection threshold, as arrays, so that another
+    of any of them refits without compiling. A least-squares fit ignores the robust ones."""
 
     loss: Int[Array, ""]
     """Index of the loss in :data:`ROBUST_LOSSES`."""
@@ -111,13 +111,15 @@ class RobustSettings(NamedTuple):
     the residuals, re-estimated after a first robust pass)."""
     reject: Float[Array, ""]
     """Observations beyond this many robust standard deviations are outliers."""
+    max_steps: Int[Array, ""]
+    """The step limit of each solve (:class:`pointax.fitting.step_limit.StepLimited`)."""
 
     @classmethod
-    def of(cls, options: FitOptions) -> "RobustSettings":
-        """``options``' loss, ``loss_scale`` (None: 0, automatic) and ``reject`` as NumPy
-        scalars (a least-squares fit's loss: index 0, unused)."""
+    def of(cls, options: FitOptions) -> "FitSettings":
+        """``options``' loss, ``loss_scale`` (None: 0, automatic), ``reject`` and
+        ``max_steps`` as NumPy scalars (a least-squares fit's loss: index 0, unused)."""
         loss = ROBUST_LOSSES.index(options.loss) if options.robust else 0
-        return cls(np.int32(loss), np.float64(options.loss_scale or 0.0), np.float64(options.reject))
+        return cls(np.int32(loss), np.float64(options.loss_scale or 0.0), np.float64(options.reject), np.int32(options.max_steps))
 
 
 def robust_rho(loss: Int[Array, ""], z, c2):
@@ -140,9 +142,11 @@ def least_squares(
     rho=None,
     c2=None,
     robust=True,
+    max_steps=None,
 ):
     """One optimistix solve of the ``free`` parameters, the others held at their values,
-    on the observations ``obs`` (or their :class:`Problem`, prepared once).
+    on the observations ``obs`` (or their :class:`Problem`, prepared once), stopped after
+    ``max_steps`` steps (an integer, may be a traced array; None: ``options.max_steps``).
 
     ``rho`` (with the squared scale ``c2``) makes it a robust fit by rescaling each
     observation's residual to ``r sqrt(rho(|r|^2) / |r|^2)``, whose squares sum to
@@ -171,19 +175,22 @@ def least_squares(
 
     import optimistix as optx
 
-    optimiser = SOLVERS[options.solver][1](rtol=options.rtol, atol=options.atol)
-    sol = optx.least_squares(fn, optimiser, y0, max_steps=options.max_steps, throw=False)
+    from .step_limit import StepLimited
+
+    limit = jnp.asarray(options.max_steps if max_steps is None else max_steps)
+    optimiser = StepLimited(SOLVERS[options.solver][1](rtol=options.rtol, atol=options.atol), limit)
+    sol = optx.least_squares(fn, optimiser, y0, max_steps=None, throw=False)
     return sol, scaled
 
 
 def fit_core(
-    model: Model, free: Bool[Array, " m"], obs: Observations, options: FitOptions, robust: RobustSettings | None = None
+    model: Model, free: Bool[Array, " m"], obs: Observations, options: FitOptions, settings: FitSettings | None = None
 ) -> FitResult:
     """Fit the ``free`` parameters of ``model`` (pure JAX: jit, vmap, lax.map).
 
-    ``robust`` (arrays) gives a robust fit's loss, scale and threshold in place of
-    ``options``' (whose ``robust`` alone then chooses least squares or robust): how
-    :func:`pointax.fit` runs one compiled robust fit for all of them, with
+    ``settings`` (arrays) gives the step limit and a robust fit's loss, scale and
+    threshold in place of ``options``' (whose ``robust`` alone then chooses least squares
+    or robust): how :func:`pointax.fit` runs one compiled fit for all of them, with
     :meth:`pointax.FitOptions.compiled` as the structure.
 
     Returns a :class:`FitResult` over *every* parameter of the model (``names`` all of
@@ -195,15 +202,15 @@ def fit_core(
     given = obs.weight > 0
     problem = define_problem(model, obs, free)  # what the observations fix, once for every pass
     weight = normalised_weights(obs.weight, given)
+    settings = FitSettings.of(options) if settings is None else settings
     if not options.robust:
         used = given
-        sol, _ = least_squares(model, free, problem, weight, options)
+        sol, _ = least_squares(model, free, problem, weight, options, max_steps=settings.max_steps)
         y_solver = jnp.where(free, sol.value, model.values("all"))
         iterations, result = sol.stats["num_steps"], solver_status(sol.result)
         outliers = jnp.zeros(given.shape, bool)
         scale, robust_ok = jnp.asarray(0.0), jnp.asarray(True)
     else:
-        settings = RobustSettings.of(options) if robust is None else robust
         y_solver, iterations, result, outliers, scale, robust_ok = _robust_passes(
             model, free, problem, obs.weight, weight, options, settings
         )
@@ -246,7 +253,7 @@ def fit_core(
     )
 
 
-def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, options: FitOptions, settings: RobustSettings):
+def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, options: FitOptions, settings: FitSettings):
     """The passes of a robust fit: the robust solves (two when the scale is automatic:
     the first from the scale of the starting model's residuals, which may be large, the
     second from the fit's), then the least-squares solve of the observations not
@@ -273,7 +280,7 @@ def _robust_passes(model: Model, free, problem: Problem, raw_weight, weight, opt
         # Soft margin c: two robust sigmas unless given.
         c2 = jnp.maximum(jnp.where(auto, 2 * scale, settings.scale) ** 2, 1e-30)
         w = jnp.where(robust, weight, normalised_weights(raw_weight, given & ~outliers))
-        sol, _ = least_squares(model.with_values(y), free, problem, w, options, rho, c2, robust=robust)
+        sol, _ = least_squares(model.with_values(y), free, problem, w, options, rho, c2, robust, settings.max_steps)
         y = jnp.where(free, sol.value, y)
         status = solver_status(sol.result)
         rw = problem.residuals(model.with_values(y)) * sqrt_w
@@ -403,11 +410,11 @@ def fit_result(
 
 def labelled(result: FitResult, options: FitOptions) -> FitResult:
     """``result``, of a fit compiled for ``options.compiled()`` with ``options``'
-    :class:`RobustSettings` as data, labelled with ``options``' own ``loss`` and ``reject``."""
+    :class:`FitSettings` as data, labelled with ``options``' own ``loss`` and ``reject``."""
     return dataclasses.replace(result, loss=options.loss, reject=options.reject if options.robust else 0.0)
 
 
-def result_structure(model: Model, free, obs: Observations, robust: RobustSettings, options: FitOptions):
+def result_structure(model: Model, free, obs: Observations, settings: FitSettings, options: FitOptions):
     """The pytree structure of :func:`fit_core`'s result, built without tracing it (for
     :mod:`pointax.fitting.programs`; checked there against the traced one)."""
     return fit_result_structure(model, model.parameters, options)

@@ -9,7 +9,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ..core.precision import float64
-from .core import RobustSettings, labelled
+from .core import FitSettings, labelled
 from .options import FitOptions
 from .residuals import residuals
 from .result import FitResult
@@ -56,14 +56,14 @@ def _fold_done(_=None) -> None:
 
 
 @eqx.filter_jit
-def _leave_one_out(model, obs, robust: RobustSettings, options: FitOptions, ticks: bool = False):
+def _leave_one_out(model, obs, settings: FitSettings, options: FitOptions, ticks: bool = False):
     n = obs.weight.shape[0]
     masks = 1.0 - jnp.eye(n, dtype=obs.weight.dtype)
     taking_part = obs.weight > 0
 
     def one_fold(mask):
         fold_obs = eqx.tree_at(lambda o: o.weight, obs, obs.weight * mask)
-        fold = fit_model(model, fold_obs, options, robust=robust)
+        fold = fit_model(model, fold_obs, options, settings=settings)
         if ticks:  # a host callback per fold moves the bar while the compiled loop runs
             jax.debug.callback(_fold_done, fold.iterations)
         return fold
@@ -134,7 +134,7 @@ def leave_one_out(
     _BARS.append(bar)
     try:
         # The robust settings as data: another loss or reject runs the same program.
-        offsets, folds = _leave_one_out(model, obs, RobustSettings.of(options), options.compiled(), bar.active)
+        offsets, folds = _leave_one_out(model, obs, FitSettings.of(options), options.compiled(), bar.active)
         folds = labelled(folds, options)
         jax.block_until_ready(folds.converged)
         jax.effects_barrier()  # every fold's callback has run

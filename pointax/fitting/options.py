@@ -81,12 +81,13 @@ class FitOptions:
         return self.loss != "linear"
 
     def compiled(self) -> "FitOptions":
-        """What a compiled fit's program depends on: these options with the robust loss,
-        its scale and the rejection threshold at fixed stand-ins (``loss`` 'cauchy' for any
-        robust loss). Those three are data of the program
-        (:class:`pointax.fitting.core.RobustSettings`), so that another loss, scale or
-        ``reject`` refits without compiling; only least squares against robust is structure."""
-        return FitOptions(self.solver, self.max_steps, self.rtol, self.atol, "cauchy" if self.robust else "linear")
+        """What a compiled fit's program depends on: these options with the step limit,
+        the robust loss, its scale and the rejection threshold at fixed stand-ins (``loss``
+        'cauchy' for any robust loss). Those four are data of the program
+        (:class:`pointax.fitting.core.FitSettings`), so that another ``max_steps``, loss,
+        scale or ``reject`` refits without compiling; only least squares against robust is
+        structure, with the solver and the tolerances."""
+        return FitOptions(self.solver, rtol=self.rtol, atol=self.atol, loss="cauchy" if self.robust else "linear")
 
     def replace(self, **changes) -> "FitOptions":
         """A copy with some options changed (checked again)."""

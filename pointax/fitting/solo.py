@@ -3,8 +3,9 @@
 The model is embedded in its family's union (:mod:`pointax.fitting.structure`), so a
 refit after USE, LOSE, FIX or MASK (other terms, other fixed parameters or values,
 other weights) runs the fit already compiled, as does another robust loss, scale or
-rejection threshold (:class:`pointax.fitting.core.RobustSettings`): only a new term
-class, mount, residual form, data shape or solver option compiles again.
+rejection threshold or another step limit (:class:`pointax.fitting.core.FitSettings`):
+only a new term class, mount, residual form, data shape, solver or tolerance compiles
+again.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from ..core.model import Model
 from ..core import xla_options
 from ..core.observations import Observations
 from . import programs
-from .core import RobustSettings, fit_core, free_mask, labelled, restrict, result_structure
+from .core import FitSettings, fit_core, free_mask, labelled, restrict, result_structure
 from .options import FitOptions
 from .residuals import as_observations, check_convention
 from .ranges import wrap_periodic
@@ -45,14 +46,14 @@ def options_from(options: FitOptions | None, **kwargs) -> FitOptions:
 
 
 def fit_model(
-    model: Model, obs: Observations, options: FitOptions, caption: str = "", robust: RobustSettings | None = None
+    model: Model, obs: Observations, options: FitOptions, caption: str = "", settings: FitSettings | None = None
 ) -> FitResult:
     """The whole fit of ``model``'s free parameters, pure JAX (jit-, vmap- and
     lax.map-able): :func:`pointax.fitting.core.fit_core` with the model's own fixed
-    names as the mask (and ``robust``, the robust settings as arrays, if given),
-    restricted to its free parameters."""
+    names as the mask (and ``settings``, the options that are data, as arrays, if
+    given), restricted to its free parameters."""
     free = free_mask(model)
-    full = fit_core(model, free, obs, options, robust)
+    full = fit_core(model, free, obs, options, settings)
     return restrict(full, np.flatnonzero(free), model, caption)
 
 
@@ -68,10 +69,10 @@ def _fit_core_jit():
     return xla_options.jit(run, static_argnums=(1, 2))
 
 
-def _fit_program(model: Model, free, obs: Observations, robust: RobustSettings, options: FitOptions) -> FitResult:
+def _fit_program(model: Model, free, obs: Observations, settings: FitSettings, options: FitOptions) -> FitResult:
     """:func:`fit_core` with the options last, as the compiled fit takes them (the
     arrays, then the structure: ``options.compiled()``)."""
-    return fit_core(model, free, obs, options, robust)
+    return fit_core(model, free, obs, options, settings)
 
 
 @float64
@@ -138,7 +139,7 @@ def fit(
     n = len(obs)
     padded = pad_observations(obs, fit_bucket(n))
     # The robust settings are data: another loss, scale or reject runs the same program.
-    args = (embedding.model, embedding.free, padded, RobustSettings.of(options))
+    args = (embedding.model, embedding.free, padded, FitSettings.of(options))
     if programs.directory() is not None:  # traced programs kept on disk
         full = programs.call("fit_core", _fit_program, args, options.compiled(), result_structure, fast_compile=True)
     else:
