@@ -184,6 +184,8 @@ def test_equatorial_axis_extras_refused_in_altaz_models():
         gpoint_extra("dec:sin:dec:1", mount="altaz")
 
 
+# Plain numbers as values on purpose (the names, not the units, are tested here).
+@pytest.mark.filterwarnings("ignore:.*most likely in degrees:pointax.core.errors.InputWarning")
 def test_names_mix_gpoint_extras_and_tpoint():
     spec = "ia, ie tn,IA,haca2,az:sincos:az;el:2;2,CA"
     names = ["ia", "ie", "tn", "IA", "HACA2", "az:sincos:az;el:2;2", "CA"]

@@ -99,6 +99,8 @@ def test_bad_names_say_what_is_wrong(name, message):
         px.terms.tpoint(f"IA {name}")
 
 
+# Plain numbers as values on purpose (the names, not the units, are tested here).
+@pytest.mark.filterwarnings("ignore:.*most likely in degrees:pointax.core.errors.InputWarning")
 def test_tpoint_factory_builds_harmonics_by_name():
     terms = px.terms.tpoint("IA IE HACA2 HESE5", values={"HACA2": 2.0, "hese5": 3.0}, form="linear")
     assert [term.name for term in terms] == ["IA", "IE", "HACA2", "HESE5"]

@@ -20,6 +20,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import pointax as px  # noqa: E402
+from pointax.core.errors import InputWarning  # noqa: E402
 from pointax.io import (  # noqa: E402
     ModelTerm,
     RunParameters,
@@ -296,13 +297,15 @@ def test_fifth_column_kept_as_extra(tmp_path):
 
 def test_text_after_end_ignored(tmp_path):
     path = write(tmp_path, HEADER + ROWS + ["end", "this is not a row", "1 2", "19x 95 nan", ": EQUAT"])
-    run = read_tpoint(path)
+    with pytest.warns(InputWarning, match=r"4 non-comment line\(s\) after END \(line 8\) were ignored \(lines 9-12\)"):
+        run = read_tpoint(path)
     assert len(run) == 3
     np.testing.assert_array_equal(run.lines, [5, 6, 7])
 
 
 def test_end_with_trailing_comment(tmp_path):
-    run = read_tpoint(write(tmp_path, HEADER + ROWS[:1] + ["END ! done", "garbage"]))
+    with pytest.warns(InputWarning, match=r"1 non-comment line\(s\) after END \(line 6\) were ignored \(line 7\)"):
+        run = read_tpoint(write(tmp_path, HEADER + ROWS[:1] + ["END ! done", "garbage"]))
     assert len(run) == 1
 
 
@@ -504,7 +507,8 @@ def test_read_real_model():
 
 
 def test_model_flags_and_method_letter():
-    m = parse_model(FLAGS_MODEL, path="flags.mod")
+    with pytest.warns(InputWarning, match=r"flags.mod:12: 1 non-comment line\(s\) after END"):
+        m = parse_model(FLAGS_MODEL, path="flags.mod")
     assert m.caption == "Model with flags"
     assert m.method == "S"
     assert m.n_obs == 12
@@ -642,7 +646,8 @@ def mmt_fit():
 def test_write_model_from_fit_result(tmp_path, mmt_fit):
     run, res = mmt_fit
     path = tmp_path / "fit.mod"
-    write_model(path, res)
+    with pytest.warns(UserWarning, match="no run given, so the refraction constants are written as 0"):
+        write_model(path, res)
     m = read_model(path)
     assert m.caption == run.caption
     assert m.method == "T"
@@ -745,7 +750,7 @@ def test_degenerate_fit_writes_a_readable_file(tmp_path, mmt_fit):
     _, res = mmt_fit
     degenerate = eqx.tree_at(lambda r: r.sigmas, res, res.sigmas.at[2].set(jnp.inf))  # as fit() reports one
     path = tmp_path / "degenerate.mod"
-    write_model(path, degenerate)
+    write_model(path, degenerate, refraction=(0.0, 0.0))
     m = read_model(path)
     assert m.terms[2].sigma is None and m.terms[1].sigma is not None
 

@@ -24,6 +24,8 @@ class TwoParams(px.Term):
         return jnp.stack([self.a, self.b])
 
 
+# Plain numbers as values on purpose (the editing, not the units, is tested here).
+@pytest.mark.filterwarnings("ignore:.*most likely in degrees:pointax.core.errors.InputWarning")
 def test_parameter_names_units_and_editing():
     model = px.AltAz([px.terms.IA(coef=1.0), TwoParams(a=2.0, b=3.0)])
     assert model.parameter_names == ["IA", "TwoParams.a", "TwoParams.b"]

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import jax
 import numpy as np
 import pytest
 
 import pointax as px
+from pointax.core.errors import InputWarning
 from pointax.io import ModelTerm, format_model, parse_model, read_model, write_model
 from pointax.io.tpoint_model import exact_decimal
 
@@ -34,10 +36,19 @@ def _random_model(rng, scale_arcsec):
 @pytest.mark.parametrize("seed, scale", [(0, 1.0), (1, 100.0), (2, 1e5), (3, 1e-6)])
 def test_tpoint_model_file_round_trip_is_exact(tmp_path, seed, scale):
     rng = np.random.default_rng(seed)
-    model, values = _random_model(rng, scale)
+    huge = scale > 3600 * 10  # coefficients of tens of degrees: pointax warns, and still keeps them
+    with warnings.catch_warnings(record=True) as built:
+        warnings.simplefilter("always", InputWarning)
+        model, values = _random_model(rng, scale)
     path = tmp_path / "m.mod"
     write_model(path, model)
-    back = read_model(path).model(azimuth="S-E")
+    with warnings.catch_warnings(record=True) as read:
+        warnings.simplefilter("always", InputWarning)
+        back = read_model(path).model(azimuth="S-E")
+    assert bool(built) == huge and bool(read) == huge
+    # Read from a file, the warning names the file, the line and the file's unit.
+    for w in read:
+        assert str(w.message).startswith(f"{path}:") and "model files give arcseconds" in str(w.message), w.message
     assert back.parameter_names == model.parameter_names
     for name in NAMES:
         assert abs(float(back.get(name)) - values[name]) <= 1e-12, name
@@ -53,7 +64,8 @@ def test_fit_result_model_file_round_trip(tmp_path):
     obs = px.simulate(truth, enc, noise=px.arcsec(1.0), seed=3)
     result = px.fit(px.AltAz(px.terms.tpoint("IA IE CA NPAE AN AW TF")), obs)
     path = tmp_path / "fit.mod"
-    write_model(path, result)
+    with pytest.warns(UserWarning, match="no run given, so the refraction constants are written as 0"):
+        write_model(path, result)
     read = read_model(path)
     assert read.n_obs == 40
     assert read.sky_rms == float(result.sky_rms) / ARCSEC

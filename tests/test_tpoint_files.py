@@ -268,7 +268,8 @@ def test_write_model_one_line_from_a_masked_fit(tmp_path):
     weights[2:5] = 0.0
     result = px.fit(run.model(px.terms.tpoint(MMT_TERMS), residual_form="tpoint"), run, weights=weights)
     path = tmp_path / "fit.mod"
-    write_model(path, result, caption="MMT masked", layout="one-line")
+    with pytest.warns(UserWarning, match="no run given, so the refraction constants are written as 0"):
+        write_model(path, result, caption="MMT masked", layout="one-line")
     text = path.read_text()
     assert text.count("\n") == 1 and text.startswith("MMT masked|T|   77|") and text.rstrip().endswith("|3-5")
     m = read_model(path)

@@ -27,6 +27,10 @@ from pointax.io import ModelTerm, TpointFormatError, format_model, read_model
 from pointax.terms import equatorial as eq
 from pointax.core.term import SkyPoint, _linearity_error
 
+# Terms are checked against their formulas with unit coefficients (1 rad): the formulas are
+# linear in them, and pointax's warning of an implausible pointing term is expected.
+pytestmark = pytest.mark.filterwarnings("ignore:.*most likely in degrees:pointax.core.errors.InputWarning")
+
 ARCSEC = np.pi / 648000
 s, c, t = np.sin, np.cos, np.tan
 LAT = np.radians(-29.26)

@@ -247,6 +247,8 @@ def test_linearised_family_is_eqs_18_19():
     np.testing.assert_allclose(model_pointing(model, enc), pointing_of(delta, enc), atol=2e-16)
 
 
+# At 300 times the paper's sizes the zero offsets are tens of degrees, on purpose.
+@pytest.mark.filterwarnings("ignore:.*most likely in degrees:pointax.core.errors.InputWarning")
 @pytest.mark.parametrize("scale", [1.0, 300.0])
 def test_rotation_family_is_eq_15_exactly(scale):
     """Rigorous: the same as the printed matrices at the paper's sizes and at 300 times

@@ -43,6 +43,7 @@ import dataclasses
 import math
 import os
 import re
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -50,7 +51,8 @@ import numpy as np
 
 from ..core.units import ARCSEC
 from .text import read_text
-from .errors import file_errors
+from ..core.errors import InputWarning
+from .errors import file_errors, warn_input
 from .tpoint_records import MOUNTS, TpointFormatError, record_numbers, records
 
 __all__ = [
@@ -148,10 +150,20 @@ class TpointModelFile:
         for t in self.terms:
             if wanted is not None and t.name not in wanted:
                 continue
-            try:
-                terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}, **where))
-            except ValueError as err:
-                raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", InputWarning)
+                try:
+                    terms.extend(tpoint([t.name], form=form, values={t.name: t.value * ARCSEC}, **where))
+                except ValueError as err:
+                    raise TpointFormatError(self.path, t.line, f"term record {t.name}: {err}") from None
+            for w in caught:
+                if issubclass(w.category, InputWarning):
+                    # The library's warning speaks of radians and px.deg; the file's unit
+                    # is the arcsecond, and its line is what the user needs.
+                    warn_input(self.path, t.line, f"term record {t.name} = {t.value:g}\" ({t.value / 3600:.4g} deg): "
+                               "larger than pointax expects of this term (model files give arcseconds)")
+                else:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return tuple(terms)
 
     def model(self, form: str = "rigorous", azimuth: str = "N-E", mount: str = "altaz", latitude: float | None = None):
