@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pointax as px
+from pointax.core.errors import InputWarning
 from pointax.core.inverse import Command, command, command_reflector, reflect_normal
 from pointax.core.rotations import angle_between, azel_to_enu
 
@@ -252,8 +253,9 @@ def test_batch_shapes_and_non_finite():
     assert c.reasons() == ["", "non-finite direction", "non-finite direction", ""]
     assert np.all(np.isnan(np.asarray(c.reading[1:3])))
     np.testing.assert_allclose(np.asarray(c.reading)[[0, 3]], np.asarray(flat.reading)[[0, 3]], atol=1e-13)
-    # Unnormalised directions are normalised.
-    c = command(model, 3.0 * d)
+    # Unnormalised directions are normalised, with a warning.
+    with pytest.warns(InputWarning, match="4 of 4 vectors are not unit vectors"):
+        c = command(model, 3.0 * d)
     np.testing.assert_allclose(c.reading, flat.reading, atol=1e-12)
 
 

@@ -164,12 +164,17 @@ def pad_observations(obs: Observations, rows: int) -> Observations:
     n = len(obs)
     if rows <= n:
         return obs
-    return Observations(
-        pad_rows(obs.encoder, rows),
-        pad_rows(obs.target, rows),
-        np.concatenate([np.asarray(obs.weight), np.zeros(rows - n)]),
-        obs.convention,
-        {k: pad_rows(v, rows) for k, v in obs.readings.items()},
+    # The arrays replaced, not the observations built again: ``obs`` was checked when it
+    # was made, and a second check would warn again, counting the padding rows.
+    return eqx.tree_at(
+        lambda o: (o.encoder, o.target, o.weight, o.readings),
+        obs,
+        (
+            pad_rows(obs.encoder, rows),
+            pad_rows(obs.target, rows),
+            np.concatenate([np.asarray(obs.weight), np.zeros(rows - n)]),
+            {k: pad_rows(v, rows) for k, v in obs.readings.items()},
+        ),
     )
 
 

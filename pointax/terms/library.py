@@ -184,11 +184,15 @@ def tpoint(
         spec = equatorial.BASIC_EQUATORIAL if equatorial_mount else BASIC_ALTAZ
     library = forms[form]
     values = {k.upper() if isinstance(k, str) else k: v for k, v in (values or {}).items()}
+    wanted = names(spec)
+    unused = sorted(set(values) - set(wanted), key=str)
+    if unused:  # before the values' units: a value for no term is refused, not warned of
+        raise ValueError(f"values given for terms not in the list: {unused}")
     for key, value in values.items():  # radians assumed: a value in arcsec or degrees is named here
         if not is_quantity(value):
             check_pointing_term(value, str(key))
     out = []
-    for name in names(spec):
+    for name in wanted:
         if name in library:
             kwargs = {}
             if equatorial_mount and name in equatorial.NEEDS_LATITUDE:
@@ -220,8 +224,6 @@ def tpoint(
                 "harmonic terms named H{A|E|S|Z}{S|C}{A|E|Z}[m][{S|C}{A|E|Z}[m]] (e.g. HACA2, HSCA5CE8) "
                 "and polynomial terms named P{A|E|S|Z}{A|E|Z}[n][{A|E|Z}[n]] (e.g. PAA1, PEE2, PAA1E2)"
             )
-    if values:
-        raise ValueError(f"values given for terms not in the list: {sorted(values)}")
     return tuple(out)
 
 
