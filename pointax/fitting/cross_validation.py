@@ -133,7 +133,8 @@ def leave_one_out(
     bar = progress_bar(len(obs.weight), "leave-one-out", "fold", enabled=progress)
     _BARS.append(bar)
     try:
-        # The robust settings as data: another loss or reject runs the same program.
+        # The step limit and the robust settings as data: another max_steps, loss or reject
+        # runs the same program.
         offsets, folds = _leave_one_out(model, obs, FitSettings.of(options), options.compiled(), bar.active)
         folds = labelled(folds, options)
         jax.block_until_ready(folds.converged)

@@ -138,7 +138,8 @@ def fit(
     embedding = embed(model)
     n = len(obs)
     padded = pad_observations(obs, fit_bucket(n))
-    # The robust settings are data: another loss, scale or reject runs the same program.
+    # The step limit and the robust settings are data: another max_steps, loss, scale or
+    # reject runs the same program.
     args = (embedding.model, embedding.free, padded, FitSettings.of(options))
     if programs.directory() is not None:  # traced programs kept on disk
         full = programs.call("fit_core", _fit_program, args, options.compiled(), result_structure, fast_compile=True)

@@ -49,9 +49,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.errors import InputWarning
 from ..core.units import ARCSEC
 from .text import read_text
-from ..core.errors import InputWarning
 from .errors import file_errors, warn_input
 from .tpoint_records import MOUNTS, TpointFormatError, record_numbers, records
 
