@@ -302,7 +302,8 @@ def _run_parameters(path: str, lineno: int, tokens: list[str]) -> RunParameters:
 
 def _mount_of(path: str, lineno: int, options: list[OptionRecord], mount: str | None) -> str:
     """'altaz' or 'equatorial': the file's mount option, else ``mount``; refuse both
-    missing (naming a misspelt mount option: ``ALTAZZ``), and a file that contradicts ``mount``."""
+    missing, and a file that contradicts ``mount`` (a misspelt mount option, ``ALTAZZ``,
+    is refused before: :func:`_refuse_misspelt_mount`)."""
     said = MOUNT_OPTIONS.intersection(o.keyword for o in options)  # supported and consistent: check_options
     in_file = "altaz" if ALTAZ_OPTION in said else ("equatorial" if said else None)
     if mount is not None and mount not in MOUNTS:
@@ -313,7 +314,6 @@ def _mount_of(path: str, lineno: int, options: list[OptionRecord], mount: str | 
             f"but mount={mount!r} (--mount {mount}) was asked for"
         )
     if in_file is None and mount is None:
-        misspelt_mount(path, options)
         raise MountNotGivenError(
             path,
             lineno,
@@ -322,6 +322,14 @@ def _mount_of(path: str, lineno: int, options: list[OptionRecord], mount: str | 
             "mount='equatorial' (command line: --mount altaz|equatorial)",
         )
     return in_file or mount
+
+
+def _refuse_misspelt_mount(path: str, options: list[OptionRecord], mount: str | None) -> None:
+    """Where the run names no mount (no mount option, no ``mount``), refuse an option
+    that misspells one, naming it (``ALTAZZ``: did you mean ALTAZ?): before
+    :func:`check_options`, which would first warn of it as an option pointax does not know."""
+    if mount is None and not MOUNT_OPTIONS.intersection(o.keyword for o in options):
+        misspelt_mount(path, options)
 
 
 def _layout(path: str, lineno: int, mount: str, n: int) -> tuple[tuple[Group, ...], int]:
@@ -421,6 +429,7 @@ def parse_tpoint(
             continue
         tokens = line.split()
         if params is None:
+            _refuse_misspelt_mount(path, options, mount)
             check_options(path, options)
             kind = _mount_of(path, lineno, options, mount)
             params = _run_parameters(path, lineno, tokens)
