@@ -135,8 +135,10 @@ def test_absurd_fit_of_wrong_units_still_says_units():
     with warnings.catch_warnings(record=True) as again:
         warnings.simplefilter("always")
         result = px.fit(px.AltAz(px.terms.tpoint("IA IE"), azimuth="S-E"), wrong)
-    # Warned of once, when the observations were made: the fit's padded copy is not
-    # checked again (it warned a second time, counting 249 of 256 values for 153 of 160).
+        px.fit(px.AltAz(px.terms.tpoint("IA IE"), azimuth="S-E"), wrong, weights=np.ones(len(wrong)))
+    # Warned of once, when the observations were made: the fit's padded and reweighted
+    # copies are not checked again (they warned a second time, the padded copy counting
+    # 249 of 256 values for 153 of 160).
     assert [str(w.message) for w in again if "look like degrees" in str(w.message)] == []
     assert "wrong unit" in result.absurd_fit() and result.standout_rows() == []
 

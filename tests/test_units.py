@@ -99,3 +99,22 @@ def test_import_pointax_does_not_import_astropy():
     code = "import sys, pointax, pointax.core.units; print('astropy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_with_weight_checks_the_targets_it_gives_weight_and_not_the_encoder_again():
+    """A target that is no unit vector is accepted at weight 0 and refused once a copy
+    gives it weight; encoder readings in degrees are warned of when the observations are
+    made, not again by the copy."""
+    import warnings
+
+    from pointax.core.units import ImplausibleValueError
+
+    target = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 2.0]])
+    obs = px.Observations(np.zeros((2, 2)), target, weight=[1.0, 0.0])
+    with pytest.raises(ImplausibleValueError, match="target"):
+        obs.with_weight([1.0, 1.0])
+    with pytest.warns(px.io.InputWarning, match="look like degrees"):
+        degrees = px.Observations(np.full((2, 2), 90.0), target[:1].repeat(2, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(np.asarray(degrees.with_weight([2.0, 1.0]).weight), [2.0, 1.0])

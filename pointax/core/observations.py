@@ -60,12 +60,7 @@ class Observations(eqx.Module):
             raise ValueError(f"encoder must have shape (n, 2), got {encoder.shape}")
         if target.shape != (encoder.shape[0], 3):
             raise ValueError(f"target must have shape ({encoder.shape[0]}, 3), got {target.shape}")
-        if weight is None:
-            weight = np.ones(encoder.shape[0])
-        elif not isinstance(weight, jnp.ndarray):
-            weight = np.asarray(weight, np.float64)
-        if weight.shape != (encoder.shape[0],):
-            raise ValueError(f"weight must have shape ({encoder.shape[0]},), got {weight.shape}")
+        weight = _weights_of(weight, encoder.shape[0])
         self.encoder = encoder
         self.target = target
         self.weight = weight
@@ -88,8 +83,14 @@ class Observations(eqx.Module):
         return Observations(self.encoder[index], self.target[index], self.weight[index], self.convention, readings)
 
     def with_weight(self, weight) -> "Observations":
-        """A copy with other ``(n,)`` weights (None: all 1), readings and convention kept."""
-        return Observations(self.encoder, self.target, weight, self.convention, self.readings)
+        """A copy with other ``(n,)`` weights (None: all 1), readings and convention kept.
+        The targets are checked again under the new weights (a row given weight must hold
+        a unit vector); the encoder readings are not: they were checked, and warned of,
+        when these observations were made."""
+        weight = _weights_of(weight, len(self))
+        if isinstance(self.target, np.ndarray):
+            check_unit_vectors(self.target, "target", weight=weight, stacklevel=3)
+        return eqx.tree_at(lambda o: o.weight, self, weight)
 
     def only_readings(self, names) -> "Observations":
         """A copy carrying only the readings called ``names`` (those a model reads,
@@ -125,6 +126,18 @@ class Observations(eqx.Module):
             value = jnp.asarray(value)
             out[name] = jnp.where(used, value, value[first])
         return out
+
+
+def _weights_of(weight, n: int):
+    """``weight`` as ``(n,)`` weights (None: all 1; float64 NumPy unless already a JAX
+    array); ValueError for another shape."""
+    if weight is None:
+        weight = np.ones(n)
+    elif not isinstance(weight, jnp.ndarray):
+        weight = np.asarray(weight, np.float64)
+    if weight.shape != (n,):
+        raise ValueError(f"weight must have shape ({n},), got {weight.shape}")
+    return weight
 
 
 def _readings_of(readings, n: int) -> dict:
