@@ -107,7 +107,7 @@ def test_sites_grouped_by_size_come_back_in_order_and_equal():
     model, sites = _network("IA IE CA AN AW", sizes, seed=3)
     batch = px.stack_observations(sites)
     assert batch.encoder.shape[1] == observation_bucket(64) == 64  # stacked to a bucketed length
-    plan = _chunk_plan(np.asarray(sizes), 8, batch.encoder.shape[1])
+    plan = _chunk_plan(batch.weight, 8, batch.encoder.shape[1])
     assert sorted({rows for _, rows in plan}) == [16, 64]
     assert sorted(np.concatenate([index for index, _ in plan]).tolist()) == list(range(40))
     grouped = px.fit_batch(model, batch, chunk_size=8)
@@ -123,6 +123,83 @@ def test_sites_grouped_by_size_come_back_in_order_and_equal():
         a, b = np.asarray(getattr(grouped, field)), np.asarray(getattr(whole, field))
         assert a.shape == b.shape, field
         np.testing.assert_allclose(a.astype(float), b.astype(float), rtol=1e-9, atol=1e-15, err_msg=field)
+
+
+def _reference_plan(lengths: np.ndarray, size: int, top: int) -> list[tuple[list[int], int]]:
+    """The chunk plan by its definition, from every site's length: rows per site the
+    smallest of top, top/2, top/4, ... (down to 8) that holds it; a level with fewer than
+    two chunks of sites joins the next larger; chunks in order of length within a level."""
+    n = len(lengths)
+    if n <= size:
+        return [(list(range(n)), top)]
+    levels = [top]
+    while levels[-1] % 2 == 0 and levels[-1] // 2 >= 8:
+        levels.append(levels[-1] // 2)
+    rows = [min(level for level in levels if level >= length) for length in lengths]
+    for level in sorted(levels)[:-1]:
+        if rows.count(level) < 2 * size:
+            rows = [levels[levels.index(level) - 1] if r == level else r for r in rows]
+    order = sorted(range(n), key=lambda k: (lengths[k], k))
+    plan = []
+    for level in sorted(set(rows)):
+        members = [k for k in order if rows[k] == level] if len(set(rows)) > 1 else list(range(n))
+        plan += [(members[start : start + size], level) for start in range(0, len(members), size)]
+    return plan
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_chunk_plan_follows_its_definition(seed):
+    """:func:`_chunk_plan` (a quick test for batches of one size, then the sites'
+    lengths) against the plan written out from every site's length, on random networks
+    of long and short sites."""
+    rng = np.random.default_rng(seed)
+    n_sites, size, top = int(rng.integers(1, 120)), int(rng.choice([4, 8, 16])), int(rng.choice([12, 16, 64, 96]))
+    short = rng.random(n_sites) < rng.random()
+    lengths = np.where(short, rng.integers(1, max(top // 4, 2), n_sites), rng.integers(top // 2, top + 1, n_sites))
+    weight = (np.arange(top) < lengths[:, None]).astype(float)
+    weight[:, 0] = np.where(rng.random(n_sites) < 0.1, 0.0, weight[:, 0])  # some first rows unused
+    used_to = [max([j + 1 for j in range(top) if weight[k, j] > 0], default=0) for k in range(n_sites)]
+    plan = [(index.tolist(), rows) for index, rows in _chunk_plan(weight, size, top)]
+    assert plan == _reference_plan(used_to, size, top)
+
+
+def test_the_host_hands_chunks_over_without_extra_work(monkeypatch):
+    """fit_batch's Python between chunks takes a core from the fits running beside it
+    (benchmarks/batch_fit_notes.md), so it stays small, counted here: the chunks go to
+    the compiled fast pass as NumPy arrays (no ``jax.device_put`` per chunk), the
+    first-call check runs once per chunk shape, and a batch of one size never computes
+    its sites' lengths."""
+    import jax
+
+    from pointax.fitting import batch, batch_fast_pass
+
+    model, sites = _network("IA IE CA", [30] * 40, seed=5)
+    stacked = px.stack_observations(sites)
+    counts = {"device_put": 0, "first_call": 0, "lengths": 0}
+    handed = []
+
+    def counting(name, fn):
+        def wrapped(*args, **kwargs):
+            counts[name] += 1
+            return fn(*args, **kwargs)
+
+        return wrapped
+
+    monkeypatch.setattr(jax, "device_put", counting("device_put", jax.device_put))
+    monkeypatch.setattr(batch_fast_pass, "first_call", counting("first_call", batch_fast_pass.first_call))
+    monkeypatch.setattr(batch, "_site_lengths", counting("lengths", batch._site_lengths))
+    real_call = batch_fast_pass.FastPass.__call__
+
+    def recording(self, values, obs, notice=None):
+        handed.extend(jax.tree.leaves((values, obs)))
+        return real_call(self, values, obs, notice)
+
+    monkeypatch.setattr(batch_fast_pass.FastPass, "__call__", recording)
+    result = px.fit_batch(model, stacked, chunk_size=8)
+    assert np.all(np.asarray(result.converged))
+    assert len(handed) == 5 * 4  # five chunks: values, encoder, target, weight
+    assert all(type(x) is np.ndarray for x in handed)
+    assert counts == {"device_put": 1, "first_call": 1, "lengths": 0}  # device_put: the assembled result
 
 
 class Terminal(io.StringIO):

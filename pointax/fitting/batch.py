@@ -34,9 +34,9 @@ from ..core.precision import float64
 from .batch_fast_pass import (
     DEFAULT_STEPS,
     TPOINT_START_STEPS,
+    FastPass,
     compiled,
     default_chunk_size,
-    fast_pass,
     first_call,
     starts_in_tpoint_form,
 )
@@ -119,7 +119,11 @@ def batched_observations(encoder, target, weight, convention, readings=None) -> 
 
 def host_batch(observations: Observations) -> Observations:
     """A batch ``(S, N, ...)`` of observations with every array, readings included, as a
-    float64 NumPy array (:func:`batched_observations`): the batched fits' host-side input."""
+    float64 NumPy array (:func:`batched_observations`): the batched fits' host-side input
+    (``observations`` itself when they are already)."""
+    arrays = (observations.encoder, observations.target, observations.weight, *observations.readings.values())
+    if all(type(x) is np.ndarray and x.dtype == np.float64 for x in arrays):
+        return observations
     return batched_observations(
         np.asarray(observations.encoder, np.float64),
         np.asarray(observations.target, np.float64),
@@ -223,18 +227,32 @@ def _site_lengths(weight) -> np.ndarray:
     return np.where(used.any(axis=1), used.shape[1] - np.argmax(used[:, ::-1], axis=1), 0)
 
 
-def _chunk_plan(lengths: np.ndarray, size: int, n_rows: int | None = None) -> list[tuple[np.ndarray, int]]:
-    """``(site indices, rows)`` per compiled call of :func:`fit_batch`.
+def _chunk_plan(weight, size: int, n_rows: int | None = None) -> list[tuple[np.ndarray, int]]:
+    """``(site indices, rows)`` per compiled call of :func:`fit_batch`, from the batch's
+    ``(S, N)`` weights (rows of weight 0 after a site's last used one are padding).
 
     Every chunk gets the batch's ``n_rows`` (default: the longest site's
     :func:`observation_bucket`), in site order; except that in a batch of several chunks, the sites
     that fit in half those rows (a quarter, ...) get chunks of their own with those
     rows when they fill at least two chunks (a further compilation must pay for
     itself): sites of very different sizes do not all pay for the largest."""
-    n_sites = len(lengths)
+    weight = np.asarray(weight)
+    n_sites = weight.shape[0]
+    lengths = None
+    if n_rows is None:
+        lengths = _site_lengths(weight)
     top = int(n_rows) if n_rows is not None else observation_bucket(lengths.max() if n_sites else 0)
     if n_sites <= size:
         return [(np.arange(n_sites), top)]
+    one_size = [(np.arange(start, min(start + size, n_sites)), top) for start in range(0, n_sites, size)]
+    if top % 2 or top // 2 < 8:
+        return one_size
+    # The sites that fit in half the rows include those of every smaller level: fewer
+    # than two chunks of them, and every group joins the next larger (a quick test
+    # before the sites' lengths, which cost batched refits time).
+    if n_sites - np.count_nonzero(np.any(weight[:, top // 2 :] > 0, axis=1)) < 2 * size:
+        return one_size
+    lengths = _site_lengths(weight) if lengths is None else lengths
     order = np.argsort(lengths, kind="stable")
     rows = np.full(n_sites, top)
     level = top
@@ -245,8 +263,8 @@ def _chunk_plan(lengths: np.ndarray, size: int, n_rows: int | None = None) -> li
     for k, level in enumerate(levels[:-1]):  # small groups join the next larger one
         if np.sum(rows == level) < 2 * size:
             rows[rows == level] = levels[k + 1]
-    if np.all(rows == top):  # one size: chunks in site order
-        return [(np.arange(start, min(start + size, n_sites)), top) for start in range(0, n_sites, size)]
+    if np.all(rows == top):
+        return one_size
     chunks = []
     for level in sorted(set(rows.tolist())):
         members = order[rows[order] == level]
@@ -258,7 +276,9 @@ def _rows_to(obs: Observations, rows: int) -> Observations:
     """``obs`` (a leading site axis) with ``rows`` rows per site: cut (the rows beyond are
     unused) or padded as :func:`stack_observations` pads (weight 0)."""
     n = obs.encoder.shape[1]
-    if rows <= n:
+    if rows == n:
+        return obs
+    if rows < n:
         return jax.tree.map(lambda x: np.asarray(x)[:, :rows], obs)
     pad = lambda x: np.concatenate([x, np.zeros((x.shape[0], rows - n) + x.shape[2:], x.dtype)], axis=1)  # noqa: E731
     out = jax.tree.map(lambda x: pad(np.asarray(x)), obs)
@@ -294,20 +314,24 @@ def _rows_back(result: FitResult, rows: int) -> FitResult:
 
 
 def _pad_sites(tree, size: int):
-    """Pad the leading (site) axis of every leaf to ``size`` with copies of site 0, and
-    hand the leaves to JAX in one ``device_put`` (``jnp.asarray`` would compile a small
-    program per new shape). They may share memory with the NumPy arrays: nothing here
-    writes to those while the fits that read them run."""
-    return jax.device_put(jax.tree.map(lambda x: pad_rows(x, size), tree), may_alias=True)
+    """Pad the leading (site) axis of every leaf to ``size`` with copies of site 0. The
+    leaves stay NumPy arrays: a compiled function takes them as they are, in its C++
+    dispatch, at about half the host's time per chunk of a ``jax.device_put`` first
+    (``benchmarks/batch_fit_notes.md``), and ``jnp.asarray`` would compile a small
+    program per new shape."""
+    return jax.tree.map(lambda x: pad_rows(x, size), tree)
 
 
 def _host(x) -> np.ndarray:
     return np.asarray(x, np.float64)
 
 
-def _first_sites(tree, n: int):
-    """The first ``n`` sites of every leaf, as NumPy arrays."""
-    return jax.tree.map(lambda x: np.asarray(x)[:n], tree)
+def _first_sites(tree, n: int) -> tuple[list[np.ndarray], object]:
+    """The first ``n`` sites of every leaf of ``tree`` as NumPy arrays, and the tree's
+    structure: the chunks' results are kept as leaves and put together once (a pytree
+    per chunk would build every chunk's result and model again)."""
+    leaves, structure = jax.tree.flatten(tree)
+    return [np.asarray(x)[:n] for x in leaves], structure
 
 
 def _take_sites(tree, index):
@@ -424,7 +448,7 @@ def fit_batch(
         chunk_size = default_chunk_size(model)
     size = n_sites if chunk_size is None else min(max(1, int(chunk_size)), power_of_two(n_sites))
     n_rows = observations.encoder.shape[1]
-    chunks = _chunk_plan(_site_lengths(site_obs.weight), size, n_rows)
+    chunks = _chunk_plan(site_obs.weight, size, n_rows)
     bar = progress_bar(n_sites, "fitting", "site", enabled=True) if progress is True else None
     report = bar if bar is not None else (progress or None)
 
@@ -438,15 +462,25 @@ def fit_batch(
             return _fit_sites(model, y0, obs, options, active=active)
 
     results, done = [], 0
+
+    def keep(index, out):
+        # A chunk's sites as NumPy leaves (with their structure), with the batch's rows.
+        nonlocal done
+        leaves, structure = _first_sites(_rows_back(out, n_rows), len(index))
+        results.append((index, structure, leaves))
+        done += len(index)
+        if report is not None:
+            report(done, n_sites)
+
     try:
         if fast:
             # Dispatch every chunk first (JAX runs them asynchronously), then look at them:
             # checking each chunk before dispatching the next would leave the CPU idle.
-            pending = []
+            pending, fast_pass = [], FastPass(model, int(steps), rtol, atol)
+            notice = lambda: activity(report, COMPILING)  # noqa: E731
             for index, rows in chunks:
                 y0, obs = chunk_inputs(index, rows)
-                notice = lambda: activity(report, COMPILING)  # noqa: E731
-                pending.append((index, y0, obs, fast_pass(model, y0, obs, int(steps), rtol, atol, notice=notice)))
+                pending.append((index, y0, obs, fast_pass(y0, obs, notice)))
             for index, y0, obs, (out, suspect) in pending:
                 n = len(index)
                 again = np.flatnonzero(~np.asarray(out.converged)[:n] | np.asarray(suspect)[:n])
@@ -457,30 +491,24 @@ def fit_batch(
                     )
                     # (the solver's name is static: one name for the batch, set at the end)
                     fast_steps = np.asarray(out.iterations)[again]
-                    redo = dataclasses.replace(redo, iterations=redo.iterations + _pad_sites(fast_steps, pad), solver=out.solver)
+                    redo = dataclasses.replace(redo, iterations=np.asarray(redo.iterations) + pad_rows(fast_steps, pad), solver=out.solver)
                     out = _put_sites(out, again, redo)
-                results.append((index, _rows_back(_first_sites(out, n), n_rows)))
-                done += n
-                if report is not None:
-                    report(done, n_sites)
+                keep(index, out)
         else:
             for index, rows in chunks:
                 y0, obs = chunk_inputs(index, rows)
                 out = full_loop(y0, obs, np.arange(size) < len(index))
-                results.append((index, _rows_back(_first_sites(out, len(index)), n_rows)))
-                done += len(index)
-                if report is not None:
-                    report(done, n_sites)
+                keep(index, out)
     finally:
         if bar is not None:
             bar.close()
-    order = np.concatenate([index for index, _ in results])
-    results = [part for _, part in results]
+    order = np.concatenate([index for index, _, _ in results])
     # Assembled on the host: JAX's slicing and concatenation (and jnp.asarray) would each
     # compile a small computation per result field on the first call.
-    result = jax.tree.map(lambda *xs: np.concatenate(xs), *results)
+    leaves = [np.concatenate(parts) for parts in zip(*(part for _, _, part in results))]
     if not np.array_equal(order, np.arange(n_sites)):  # chunks by size: back to site order
-        result = jax.tree.map(lambda x: x[np.argsort(order, kind="stable")], result)
+        leaves = [x[np.argsort(order, kind="stable")] for x in leaves]
+    result = jax.tree.unflatten(results[0][1], leaves)
     # A site with no more residuals than free parameters fits every point, with every
     # sigma 0: refused, as px.fit refuses it (the reason: FitResult.message).
     too_few = too_few_residuals(result.n_obs, len(model.free_parameters))

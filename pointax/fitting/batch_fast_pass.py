@@ -41,6 +41,7 @@ __all__ = [
     "DEFAULT_CHUNK",
     "SKY_FORM_CHUNK",
     "fast_pass",
+    "FastPass",
     "Linearisation",
     "gauss_newton_step",
     "fixed_steps_fits",
@@ -292,31 +293,62 @@ def fast_pass(
 ) -> tuple[FitResult, Array]:
     """The fast pass over one chunk (``values (S, M)``, ``obs`` with a leading site axis):
     the site data, then :func:`fixed_steps_fits`; the batched ``(FitResult, suspect)``.
+    :class:`FastPass` does the same for the many chunks of one batch.
+
+    ``notice``: ``notice()`` gives a context that the first call of a program (a
+    compilation, :func:`first_call`) runs in, e.g. a progress bar's activity."""
+    return FastPass(model, steps, rtol, atol)(values, obs, notice)
+
+
+class FastPass:
+    """The fast pass (:func:`fast_pass`) of one model and settings, set up once for the
+    chunks of a :func:`pointax.fit_batch` call: the program and its compiler options are
+    chosen once, and the first-call check (:func:`first_call`) runs once per chunk
+    shape, not once per chunk (the Python between chunks takes a core from the fits).
 
     With more than one step (or the TPOINT-form start), one compiled call: the step loop
     takes the site data as arrays, so XLA computes each of them once. With one step
     (affine models) there is no loop, and inside one computation XLA on the CPU
     recomputes the data's arctangents, sines and cosines in every fusion that uses them,
-    so the site data are a call of their own and handed over as arrays.
+    so the site data are a call of their own and handed over as arrays."""
 
-    ``notice``: ``notice()`` gives a context that the first call of a program (a
-    compilation, :func:`first_call`) runs in, e.g. a progress bar's activity."""
-    statics = ("steps", "rtol", "atol")
-    fast = uses_fast_compile_options(model)
-    tpoint_start = starts_in_tpoint_form(model)
-    first = first_call("fast_pass", (model, values, obs), (steps, rtol, atol, fast, tpoint_start))
-    with notice() if first and notice is not None else contextlib.nullcontext():
-        if (steps > 1 or tpoint_start) and programs.directory() is not None:
+    def __init__(self, model: Model, steps: int, rtol: float, atol: float):
+        self.model, self.steps, self.rtol, self.atol = model, int(steps), rtol, atol
+        self.fast = uses_fast_compile_options(model)
+        self.tpoint_start = starts_in_tpoint_form(model)
+        self._checked: set = set()
+
+    def __call__(self, values, obs, notice=None) -> tuple[FitResult, Array]:
+        """The fast pass over one chunk (as :func:`fast_pass`)."""
+        model, steps, rtol, atol = self.model, self.steps, self.rtol, self.atol
+        shape = (np.shape(values), np.shape(obs.encoder), _dtype(values), _dtype(obs.encoder), obs.convention, tuple(obs.readings))
+        first = False
+        if shape not in self._checked:  # every other leaf's shape follows from these
+            self._checked.add(shape)
+            statics = (steps, rtol, atol, self.fast, self.tpoint_start)
+            first = first_call("fast_pass", (model, values, obs), statics)
+        with notice() if first and notice is not None else contextlib.nullcontext():
+            return self._run(values, obs)
+
+    def _run(self, values, obs) -> tuple[FitResult, Array]:
+        model, steps, rtol, atol, fast = self.model, self.steps, self.rtol, self.atol, self.fast
+        if (steps > 1 or self.tpoint_start) and programs.directory() is not None:
             # Stored programs (jax.export): a later process does not trace this fit again
             # (tracing it costs more than loading its compiled code, benchmarks/network_scale.py).
-            static = (int(steps), float(rtol), float(atol), bool(tpoint_start))
+            static = (steps, float(rtol), float(atol), bool(self.tpoint_start))
             return programs.call("batch_fast_pass", _stored_fast_pass, (model, values, obs), static, _fast_pass_structure, fast)
-        if steps > 1 or tpoint_start:
+        statics = ("steps", "rtol", "atol")
+        if steps > 1 or self.tpoint_start:
             return compiled(_site_data_and_fits, statics + ("tpoint_start",), fast)(
-                model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=tpoint_start
+                model, values, obs, steps=steps, rtol=rtol, atol=atol, tpoint_start=self.tpoint_start
             )
         data = compiled(site_data, (), fast)(model, obs)
         return compiled(fixed_steps_fits, statics, fast)(model, values, data, steps=steps, rtol=rtol, atol=atol)
+
+
+def _dtype(x) -> str:
+    dtype = getattr(x, "dtype", None)
+    return str(dtype if dtype is not None else np.asarray(x).dtype)
 
 
 def _stored_fast_pass(model, values, obs, static):
