@@ -93,7 +93,7 @@ def first_call(name: str, args, statics=()) -> bool:
     tracing."""
     try:
         leaves, treedef = jax.tree.flatten(args)
-        shapes = tuple((np.shape(x), str(x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype)) for x in leaves)
+        shapes = tuple((np.shape(x), _dtype(x)) for x in leaves)
         key = (name, treedef, shapes, statics, bool(jax.config.jax_enable_x64))
         hash(key)
     except TypeError:  # a structure without a hash: say so every time
@@ -347,6 +347,7 @@ class FastPass:
 
 
 def _dtype(x) -> str:
+    """The name of ``x``'s dtype (an array's, or NumPy's for a Python number)."""
     dtype = getattr(x, "dtype", None)
     return str(dtype if dtype is not None else np.asarray(x).dtype)
 
