@@ -158,7 +158,7 @@ def test_progress_callback_counts_sites(example):
 
 def test_small_groups_go_to_the_full_loop_side_by_side(example, monkeypatch):
     """Groups of fewer than SMALL_GROUP sites skip the fast pass (steps=0), and the
-    groups run in threads of their own; the answers are those of the example's run
+    groups run in a pool of threads; the answers are those of the example's run
     (the same compiled programs: equal bit for bit)."""
     import threading
 
@@ -171,11 +171,22 @@ def test_small_groups_go_to_the_full_loop_side_by_side(example, monkeypatch):
         calls.append((batch.encoder.shape[0], kwargs.get("steps"), threading.get_ident()))
         return real(model, batch, **kwargs)
 
+    pools = []
+
+    class Pool(network.ThreadPoolExecutor):
+        def __init__(self, max_workers=None, **kwargs):
+            pools.append(max_workers)
+            super().__init__(max_workers=max_workers, **kwargs)
+
     monkeypatch.setattr(network, "fit_batch", spy)
+    monkeypatch.setattr(network, "ThreadPoolExecutor", Pool)
     monkeypatch.setattr(network.os, "cpu_count", lambda: 2)
     again = fit_network(MANIFEST)
     assert sorted((n, steps) for n, steps, _ in calls) == [(1, 0), (5, 0)]
-    assert len({thread for *_, thread in calls}) == 2 and threading.get_ident() not in {t for *_, t in calls}
+    # A pool of two threads, and no group fitted in the calling thread. (Which of the two
+    # threads fits which group is the pool's: one that finishes its group first may take
+    # the other too, as it did once on a busy CI machine.)
+    assert pools == [2] and threading.get_ident() not in {t for *_, t in calls}
     for a, b in zip(again.sites, example.sites):
         assert a.keys() == b.keys() and a["status"] == b["status"]
         if "values" in a:
