@@ -236,13 +236,16 @@ def test_use_lose_fix_mask_do_not_recompile_in_either_form(run):
 # A fit in a fresh process with the caches on (POINTAX_JAX_CACHE), printing what the
 # stored programs did, the values, and which of the solver and term libraries (and the
 # model families) that an alt-az fit and its listing do not need it imported;
-# ``other-jax`` pretends another JAX version.
+# ``other-jax`` pretends another JAX version, ``untested-jax`` one that stored
+# executables are not used with.
 _FRESH_FIT = (
     "import json, sys, pointax as px\n"
-    "from pointax.fitting import programs\n"
+    "from pointax.fitting import programs, stored_executables\n"
     "px.enable_compilation_cache()\n"
     "if sys.argv[1:] == ['other-jax']:\n"
     "    programs._VERSIONS[:] = [programs._versions().replace('jax=', 'jax=0.0.0+other ')]\n"
+    "if sys.argv[1:] == ['untested-jax']:\n"
+    "    stored_executables.TESTED_JAX = ()\n"
     f"run = px.io.read_tpoint({str(MMT_DAT)!r}, azimuth='S-E')\n"
     "r = px.fit(px.AltAz(px.terms.tpoint('IA IE NPAE CA AN AW TF TX'), azimuth=run.azimuth), run)\n"
     "from pointax.analysis.listing import observation_entries  # as pointax fit --json\n"
@@ -282,25 +285,69 @@ def _copy_of(stored_fit, tmp_path: Path) -> Path:
     return Path(shutil.copytree(stored_fit[0], tmp_path / "cache"))
 
 
-def test_a_fresh_process_loads_the_traced_fit(stored_fit, tmp_path):
-    """With the caches on, a second process fitting the same structure reads the
-    exported program instead of tracing the fit (counted, not timed), imports no solver
-    library, and gets the same numbers; clear() empties the folder."""
+def test_a_fresh_process_loads_the_compiled_fit(stored_fit, tmp_path):
+    """With the caches on, a second process fitting the same structure runs the stored
+    executable instead of tracing and compiling the fit (counted, not timed), imports no
+    solver library, and gets the same numbers; clear() empties the folder."""
     first = stored_fit[1]
     cache = _copy_of(stored_fit, tmp_path)
     folder = cache / "programs"
     assert first["stats"]["exported"] == 1 and first["stats"]["stored"] == 1 and first["stats"]["loaded"] == 0
+    assert first["stats"]["executables_stored"] == 1 and first["stats"]["executables_loaded"] == 0
     second, err = _fresh_fit(cache)
-    assert second["stats"]["exported"] == 0 and second["stats"]["loaded"] == 1 and "unreadable" not in err
+    assert second["stats"]["exported"] == 0 and second["stats"]["executables_loaded"] == 1 and "unreadable" not in err
+    assert second["stats"]["loaded"] == 0 and second["stats"]["executables_stored"] == 0  # the program not even read
     # Neither the solvers nor the term classes an alt-az fit does not use, nor the
     # families that analysis's package once imported with the listing.
     assert first["solvers"] == ["lineax", "optimistix"] and second["solvers"] == []
     assert second["values"] == first["values"]
-    assert [p.suffix for p in folder.iterdir()] == [".program"]
+    assert sorted(p.suffix for p in folder.iterdir()) == [".executable", ".program"]
     from pointax.fitting import programs
 
     programs.clear(folder)
     assert not folder.exists()
+
+
+def test_without_its_executable_the_stored_program_is_compiled_and_stored_again(stored_fit, tmp_path):
+    """A program whose executable is gone (another machine's folder, a deleted file) is
+    read and compiled, not traced, and its executable is stored again; with a JAX
+    release that stored executables have not been tested on, the program is compiled
+    every time and no executable is read or written."""
+    first = stored_fit[1]
+    cache = _copy_of(stored_fit, tmp_path)
+    folder = cache / "programs"
+    (executable,) = folder.glob("*.executable")
+    executable.unlink()
+    untested, err = _fresh_fit(cache, "untested-jax")
+    assert untested["stats"]["loaded"] == 1 and untested["stats"]["exported"] == 0 and "unreadable" not in err
+    assert untested["stats"]["executables_loaded"] == 0 and untested["stats"]["executables_stored"] == 0
+    assert not executable.exists() and untested["values"] == first["values"]
+    second, err = _fresh_fit(cache)
+    assert second["stats"]["loaded"] == 1 and second["stats"]["executables_stored"] == 1 and "unreadable" not in err
+    assert executable.is_file() and second["values"] == first["values"]
+    third, _ = _fresh_fit(cache)
+    assert third["stats"]["executables_loaded"] == 1 and third["stats"]["loaded"] == 0
+
+
+def test_an_unreadable_stored_executable_is_compiled_again_with_a_note(stored_fit, tmp_path):
+    """A stored executable that cannot be read (truncated; or written by a pointax of
+    another format) is compiled again from its program and replaced, and the process
+    says so in one line; the numbers are the same."""
+    first = stored_fit[1]
+    cache = _copy_of(stored_fit, tmp_path)
+    (executable,) = (cache / "programs").glob("*.executable")
+    whole = executable.read_bytes()
+    for broken in (whole[: len(whole) // 2], whole.replace(b"pointax-executable 1 ", b"pointax-executable 9 ", 1)):
+        executable.write_bytes(broken)
+        second, err = _fresh_fit(cache)
+        assert second["stats"]["executables_unreadable"] == 1 and second["stats"]["loaded"] == 1
+        assert second["stats"]["executables_stored"] == 1 and second["stats"]["exported"] == 0
+        notes = [line for line in err.splitlines() if "unreadable" in line]
+        assert len(notes) == 1 and f"stored executable {executable} unreadable" in notes[0], err
+        assert "compiling the fit again" in notes[0] and second["values"] == first["values"]
+        third, err = _fresh_fit(cache)  # replaced: read as usual
+        assert third["stats"]["executables_loaded"] == 1 and "unreadable" not in err
+        assert third["values"] == first["values"]
 
 
 def test_an_unreadable_stored_program_is_traced_again_with_a_note(stored_fit, tmp_path):
@@ -314,13 +361,15 @@ def test_an_unreadable_stored_program_is_traced_again_with_a_note(stored_fit, tm
     folder = cache / "programs"
     (entry,) = folder.glob("*.program")
     entry.write_bytes(entry.read_bytes()[: entry.stat().st_size // 2])
+    for executable in folder.glob("*.executable"):  # (else the program is not read)
+        executable.unlink()
     second, err = _fresh_fit(cache)
     assert second["stats"]["unreadable"] == 1 and second["stats"]["exported"] == 1 and second["stats"]["stored"] == 1
     notes = [line for line in err.splitlines() if "unreadable" in line]
     assert len(notes) == 1 and f"stored program {entry} unreadable" in notes[0] and "tracing the fit again" in notes[0]
     assert second["values"] == first["values"]
     third, err = _fresh_fit(cache)  # replaced: read as usual
-    assert third["stats"]["loaded"] == 1 and third["stats"]["exported"] == 0 and "unreadable" not in err
+    assert third["stats"]["executables_loaded"] == 1 and third["stats"]["exported"] == 0 and "unreadable" not in err
     other, _ = _fresh_fit(cache, "other-jax")  # another key: traced and stored beside, nothing stale read
     assert other["stats"]["loaded"] == 0 and other["stats"]["exported"] == 1 and other["stats"]["unreadable"] == 0
     assert len(list(folder.glob("*.program"))) == 2 and other["values"] == first["values"]

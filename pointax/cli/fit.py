@@ -334,6 +334,12 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     if fmt == "paint":
         return _fit_paint(args, loss)
+    import os
+
+    from ..fitting import programs
+
+    # The executable this file's last fit ran starts loading while the rest is imported.
+    programs.prefetch(f"fit {os.path.abspath(args.data)}")
     import numpy as np
 
     from .. import terms as term_library

@@ -4,16 +4,26 @@ does not trace again what an earlier one traced for the same model structure.
 JAX's persistent compilation cache (:mod:`pointax.fitting.compilation_cache`) keeps XLA's
 compiled code, but every new process still traces the fit from Python first, and tracing
 optimistix's solver loop costs more than loading the compiled code
-(``benchmarks/interactive_notes.md``). Here each fit's traced program is exported
-(``<key>.program``); a later process with the same structure reads it, and compiling it
-is then a hit in XLA's cache.
+(``benchmarks/interactive_notes.md``). Here each fit is kept twice:
+
+* its traced program, exported (:mod:`jax.export`, ``<key>.program``): a later process
+  with the same structure reads it instead of tracing, and compiles it;
+* where :func:`pointax.fitting.stored_executables.usable`, the compiled executable
+  (``<key'>.executable``, ``key'`` adding the machine): a later process runs it without
+  lowering the program or reading XLA's cache, which takes most of a warm fit's time
+  beyond importing JAX.
+
+A command may also name its *context* (:func:`prefetch`: ``pointax fit`` names its data
+file): the executable the last process of that context ran then starts loading in a
+background thread, while the process imports the rest of pointax and reads its data.
 
 An entry's key is a hash of the program's name, the pytree structure (every node's
 class by module and qualified name, its static configuration) and shapes of its inputs,
 the fit options, and the versions of pointax (the hash of its source files), JAX,
 jaxlib, equinox, lineax and optimistix: a change of any of them writes a new entry,
 never reads a stale one. An entry that cannot be read (a truncated file, another
-writer) is traced again and replaced, with a one-line :class:`RuntimeWarning`. Only
+writer) is traced again and replaced, an executable that cannot be read is compiled again
+from its program, each with a one-line :class:`RuntimeWarning`. Only
 programs built of pointax's own classes go to disk: the source of a user's term class
 is not part of the key, so a fit with one is traced once per process (an edited term
 must never run its old program). Clear the cache with :func:`clear` (or delete the
@@ -30,6 +40,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.metadata
+import json
 import os
 import re
 import shutil
@@ -42,10 +53,14 @@ import jax
 import numpy as np
 
 from ..core import xla_options
+from . import stored_executables
 
-__all__ = ["set_directory", "directory", "call", "clear", "STATS"]
+__all__ = ["set_directory", "directory", "call", "clear", "prefetch", "STATS"]
 
-STATS = {"loaded": 0, "exported": 0, "stored": 0, "memory": 0, "unreadable": 0}
+STATS = {
+    "loaded": 0, "exported": 0, "stored": 0, "memory": 0, "unreadable": 0,
+    "executables_loaded": 0, "executables_stored": 0, "executables_unreadable": 0, "prefetched": 0,
+}  # fmt: skip
 """How programs were obtained in this process (for tests and benchmarks)."""
 
 _DIRECTORY: Path | None = None
@@ -103,7 +118,7 @@ def call(name: str, fn: Callable, args: tuple, static, structure: Callable, fast
     if entry is None:
         expected = structure(*args, static)
         key = _key(name + (" fast-compile" if fast_compile else ""), in_tree, avals, static)
-        entry = key is not None and _load(key, expected, fast_compile)
+        entry = key is not None and (_load_executable(key, expected) or _load(key, expected, fast_compile))
         if not entry:
             # One trace at a time: tracing holds Python's lock anyway, and threads that
             # trace side by side each take as long as both (fit-network fits its model
@@ -199,7 +214,7 @@ def _load(key: str, out_tree, fast_compile: bool):
         warnings.warn(note, RuntimeWarning, stacklevel=3)
         return None
     STATS["loaded"] += 1
-    return xla_options.jit(exported.call, fast_compile), [out_tree]
+    return _compiled(key, exported, fast_compile), [out_tree]
 
 
 def _export(key: str | None, fn: Callable, in_tree, avals, static, expected, fast_compile: bool):
@@ -234,9 +249,10 @@ def _export(key: str | None, fn: Callable, in_tree, avals, static, expected, fas
         out_tree.clear()
         return xla_options.jit(lambda *leaves: flat(*leaves), fast_compile), out_tree
     STATS["exported"] += 1
-    if out_tree[-1] == expected:
-        _store(key, exported)
-    return xla_options.jit(exported.call, fast_compile), out_tree
+    if out_tree[-1] != expected:
+        return xla_options.jit(exported.call, fast_compile), out_tree
+    _store(key, exported)
+    return _compiled(key, exported, fast_compile), out_tree
 
 
 def _store(key: str | None, exported) -> None:
@@ -244,14 +260,104 @@ def _store(key: str | None, exported) -> None:
     if path is None:
         return
     try:
-        _write(path, bytes(exported.serialize()))
+        stored_executables.write_atomically(path, bytes(exported.serialize()))
     except Exception:  # not serialisable, a full disk: keep it in memory only
         return
     STATS["stored"] += 1
 
 
-def _write(path: Path, blob: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
-    tmp.write_bytes(blob)
-    os.replace(tmp, path)  # atomic: a concurrent reader sees all of it or nothing
+def _executable_path(key: str | None) -> Path | None:
+    if _DIRECTORY is None or key is None or not stored_executables.usable():
+        return None
+    machine = hashlib.sha256((key + stored_executables.machine()).encode()).hexdigest()
+    return _DIRECTORY / f"{machine}.executable"
+
+
+def _compiled(key: str | None, exported, fast_compile: bool):
+    """``exported`` compiled; its executable stored beside the program where
+    executables are (:func:`_executable_path`)."""
+    path = _executable_path(key)
+    if path is not None:
+        options = xla_options.fast_compile_options() if fast_compile else {}
+        lowered = jax.jit(exported.call).lower(*exported.in_avals)
+        try:
+            compiled, stored = stored_executables.compile_and_store(lowered, options, path)
+        except Exception:  # an XLA that does not know the options: compiled as usual
+            return xla_options.jit(exported.call, fast_compile)
+        if stored:
+            STATS["executables_stored"] += 1
+            _remember(path)
+        return compiled
+    return xla_options.jit(exported.call, fast_compile)
+
+
+def _load_executable(key: str, out_tree):
+    """The stored executable of ``key`` (prefetched or read now) and ``[out_tree]``, or
+    None when there is none or it cannot be read (noted: compiled again)."""
+    path = _executable_path(key)
+    if path is None:
+        return None
+    loaded = stored_executables.take_prefetched(path)
+    if loaded is not None:
+        STATS["prefetched"] += 1
+    elif not path.is_file():
+        return None
+    else:
+        try:
+            loaded = stored_executables.load(path)
+        except Exception as err:
+            loaded = err
+    if not isinstance(loaded, BaseException) and loaded[1] != out_tree.num_leaves:
+        loaded = ValueError(f"{loaded[1]} results where the fit has {out_tree.num_leaves}")
+    if isinstance(loaded, BaseException):
+        STATS["executables_unreadable"] += 1
+        reason = str(loaded).splitlines()[0] if str(loaded) else type(loaded).__name__
+        warnings.warn(f"stored executable {path} unreadable ({reason}); compiling the fit again", RuntimeWarning, stacklevel=4)
+        return None
+    STATS["executables_loaded"] += 1
+    _remember(path)
+    return loaded[0], [out_tree]
+
+
+_CONTEXT: list[str] = []
+_RECENT = "recent.json"
+_RECENT_KEPT = 64
+
+
+def prefetch(context: str) -> bool:
+    """Start loading, in a background thread, the executable that the last process of
+    this ``context`` ran (``pointax fit`` passes its data file), and remember the context
+    for the executables this process runs.
+
+    The loaded executable serves a fit only if it is the one the fit asks for (by its
+    key). Returns whether a load was started."""
+    if _DIRECTORY is None:
+        return False
+    _CONTEXT[:] = [context]
+    name = _recent().get(context)
+    if name is None or not stored_executables.usable():
+        return False
+    return stored_executables.prefetch(_DIRECTORY / name)
+
+
+def _recent() -> dict:
+    try:
+        recent = json.loads((_DIRECTORY / _RECENT).read_text())
+    except (OSError, ValueError):
+        return {}
+    return recent if isinstance(recent, dict) else {}
+
+
+def _remember(path: Path) -> None:
+    """Note ``path`` as the executable of this process's context (for :func:`prefetch`)."""
+    if not _CONTEXT or _DIRECTORY is None:
+        return
+    recent = _recent()
+    if recent.get(_CONTEXT[0]) == path.name:
+        return
+    recent.pop(_CONTEXT[0], None)
+    recent[_CONTEXT[0]] = path.name  # the most recent last
+    try:
+        stored_executables.write_atomically(_DIRECTORY / _RECENT, json.dumps(dict(list(recent.items())[-_RECENT_KEPT:])).encode())
+    except OSError:  # a read-only folder: no prefetch next time
+        pass
