@@ -153,3 +153,26 @@ def test_a_prefetch_prepares_lapack_beside_the_load(monkeypatch, tmp_path):
     assert stored_executables.take_prefetched(path) == ("compiled", 0)
     assert ran == {"prepare": "pointax-prefetch-lapack", "load": "pointax-prefetch"}
     assert stored_executables.take_prefetched(path) is None  # taken once
+
+
+def test_the_prefetch_reads_only_a_file_of_its_own_folder(monkeypatch, tmp_path):
+    """``programs.prefetch(context)`` starts a load only for the executable that
+    ``recent.json`` records for that context, and only a file name of the programs
+    folder (not a path elsewhere, not another kind of entry); a load that fails hands
+    its error to the fit, which notes it and compiles (the notes are tested with the
+    fresh-process fits)."""
+    from pointax.fitting import programs
+
+    monkeypatch.setattr(programs, "_DIRECTORY", tmp_path)
+    monkeypatch.setattr(programs, "_CONTEXT", [])
+    good = tmp_path / "a.executable"
+    good.write_bytes(b"not an executable\n")
+    (tmp_path.parent / "b.executable").write_bytes(b"")
+    recent = {"fit x": "a.executable", "fit y": "../b.executable", "fit z": ["a.executable"], "fit w": "recent.json"}
+    (tmp_path / "recent.json").write_text(json.dumps(recent))
+    for context in ("fit y", "fit z", "fit w", "fit none"):
+        assert not programs.prefetch(context), context
+        assert programs._CONTEXT == [context]  # remembered for what this process stores
+    assert programs.prefetch("fit x")
+    error = stored_executables.take_prefetched(good)
+    assert isinstance(error, ValueError) and "not a pointax executable" in str(error)

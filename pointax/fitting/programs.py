@@ -335,7 +335,9 @@ def prefetch(context: str) -> bool:
         return False
     _CONTEXT[:] = [context]
     name = _recent().get(context)
-    if name is None or not stored_executables.usable():
+    if not (isinstance(name, str) and Path(name).name == name and name.endswith(".executable")):
+        return False  # none recorded, or not a file of this folder
+    if not stored_executables.usable():
         return False
     return stored_executables.prefetch(_DIRECTORY / name)
 
