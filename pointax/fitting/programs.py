@@ -208,13 +208,17 @@ def _load(key: str, out_tree, fast_compile: bool):
         if len(exported.out_avals) != out_tree.num_leaves:
             raise ValueError(f"{len(exported.out_avals)} results where the fit has {out_tree.num_leaves}")
     except Exception as err:  # truncated, or from another writer: traced again and replaced
-        STATS["unreadable"] += 1
-        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
-        note = f"stored program {path} unreadable ({reason}); tracing the fit again"
-        warnings.warn(note, RuntimeWarning, stacklevel=3)
-        return None
+        return _unreadable("unreadable", f"stored program {path}", err, "tracing the fit again")
     STATS["loaded"] += 1
     return _compiled(key, exported, fast_compile), [out_tree]
+
+
+def _unreadable(counter: str, what: str, err: BaseException, then: str) -> None:
+    """Count and note, in one line, a stored entry that cannot be read (the warning
+    points at the caller of :func:`call`); returns None, what the loaders return then."""
+    STATS[counter] += 1
+    reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+    warnings.warn(f"{what} unreadable ({reason}); {then}", RuntimeWarning, stacklevel=4)
 
 
 def _export(key: str | None, fn: Callable, in_tree, avals, static, expected, fast_compile: bool):
@@ -310,10 +314,7 @@ def _load_executable(key: str, out_tree):
     if not isinstance(loaded, BaseException) and loaded[1] != out_tree.num_leaves:
         loaded = ValueError(f"{loaded[1]} results where the fit has {out_tree.num_leaves}")
     if isinstance(loaded, BaseException):
-        STATS["executables_unreadable"] += 1
-        reason = str(loaded).splitlines()[0] if str(loaded) else type(loaded).__name__
-        warnings.warn(f"stored executable {path} unreadable ({reason}); compiling the fit again", RuntimeWarning, stacklevel=4)
-        return None
+        return _unreadable("executables_unreadable", f"stored executable {path}", loaded, "compiling the fit again")
     STATS["executables_loaded"] += 1
     _remember(path)
     return loaded[0], [out_tree]
