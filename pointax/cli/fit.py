@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 from collections.abc import Callable
 from typing import Any
 
@@ -334,8 +335,6 @@ def fit_from_args(args: argparse.Namespace) -> FitOutcome:
     enable_compilation_cache()  # $POINTAX_JAX_CACHE; empty: off
     if fmt == "paint":
         return _fit_paint(args, loss)
-    import os
-
     from ..fitting import programs
 
     # The executable this file's last fit ran starts loading while the rest is imported.
